@@ -1,0 +1,3 @@
+"""RESUS testbed: robotic ultrasound acquisition, reconstruction, reslicing and segmentation."""
+
+__version__ = "0.1.0"

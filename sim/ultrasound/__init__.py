@@ -1,0 +1,1 @@
+"""Synthetic B-mode ultrasound of a vessel phantom, seen by a linear probe."""
