@@ -1,0 +1,177 @@
+"""Femoral anatomy as a handful of parameters, and the vessel tubes they imply.
+
+The common femoral artery (CFA) runs distally (+y) and divides at `bifurcation_y` into the
+superficial femoral artery (SFA, which keeps the course) and the deep femoral artery (DFA,
+which turns deeper and lateral-posterior over `dfa_transition`). The femoral vein lies medial
+to the artery (CFV proximal to the bifurcation level, FV distal to it); the great saphenous
+vein (GSV) leaves the CFV at `gsv_junction_y`, arching up and medial to run superficially.
+Both vessels sway gently sideways and deepen distally. Lengths are metres; "lateral" offsets
+are signed by the leg's side (+x on a right leg).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from sim.phantom.spec import BodySpec, VesselSpec
+
+CONTROL_STEP = 0.010
+"""Spacing of control points along y on straight runs (m)."""
+TRANSITION_STEP = 0.005
+"""Spacing of control points where a branch diverges (m)."""
+
+
+@dataclass(frozen=True)
+class FemoralAnatomy:
+    """Parameters of the femoral vessels (and optional femur) of one subject."""
+
+    centre_offset: float = 0.0
+    """Lateral offset of the artery-vein midpoint from x = 0."""
+    artery_vein_spacing: float = 0.014
+    """Centre-to-centre distance of artery and vein along x."""
+    artery_depth: float = 0.016
+    """Depth of the CFA centre below the top line at the proximal end."""
+    vein_depth_offset: float = 0.002
+    """How much deeper the vein centre lies than the artery centre."""
+    depth_slope: float = 0.06
+    """Extra depth per metre travelled distally."""
+    cfa_radius: float = 0.0040
+    sfa_radius: float = 0.0034
+    dfa_radius: float = 0.0028
+    cfv_radius: float = 0.0050
+    fv_radius: float = 0.0044
+    gsv_radius: float = 0.0020
+    artery_wall: float = 0.0006
+    vein_wall: float = 0.0004
+    bifurcation_y: float = -0.020
+    """Where the CFA divides (and the CFV becomes the FV)."""
+    dfa_lateral: float = 0.008
+    """Lateral offset the DFA reaches from the SFA course."""
+    dfa_drop: float = 0.012
+    """Extra depth the DFA reaches below the SFA course."""
+    dfa_transition: float = 0.040
+    """Distance along y over which the DFA diverges."""
+    gsv_junction_y: float = -0.050
+    """Where the GSV joins the CFV."""
+    gsv_medial: float = 0.015
+    """Medial offset the GSV reaches from the femoral vein course."""
+    gsv_depth: float = 0.005
+    """Depth of the GSV centre once it runs superficially."""
+    gsv_arch: float = 0.035
+    """Distance along y over which the GSV rises from the junction."""
+    sway_amplitude: float = 0.003
+    """Amplitude of the sideways sway of both vessels."""
+    sway_wavelength: float = 0.120
+    sway_phase: float = 0.0
+    femur_depth: float | None = None
+    """Depth of the femur's top surface; None for no femur."""
+    femur_radius: float = 0.012
+    femur_lateral: float = 0.012
+    """Lateral offset of the femur's axis at y = 0."""
+    femur_tilt: float = 0.10
+    """Lateral drift of the femur's axis per metre along y."""
+
+
+def _smoothstep(t: np.ndarray) -> np.ndarray:
+    t = np.clip(t, 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _stations(start: float, stop: float, step: float) -> np.ndarray:
+    count = max(2, math.ceil((stop - start) / step - 1e-9) + 1)
+    return np.linspace(start, stop, count)
+
+
+def _joined(*runs: np.ndarray) -> np.ndarray:
+    """Concatenate station runs that share their end points."""
+    return np.concatenate([runs[0], *(run[1:] for run in runs[1:])])
+
+
+class _Course:
+    """Centre courses of the artery and vein trunks as functions of y."""
+
+    def __init__(self, anatomy: FemoralAnatomy, lateral: float, y0: float) -> None:
+        self.anatomy, self.lateral, self.y0 = anatomy, lateral, y0
+
+    def _mid_x(self, y: np.ndarray) -> np.ndarray:
+        a = self.anatomy
+        phase = 2.0 * math.pi * (y - self.y0) / a.sway_wavelength + a.sway_phase
+        return self.lateral * (a.centre_offset + a.sway_amplitude * np.sin(phase))
+
+    def _depth(self, y: np.ndarray) -> np.ndarray:
+        return self.anatomy.artery_depth + self.anatomy.depth_slope * (y - self.y0)
+
+    def artery(self, y: np.ndarray) -> np.ndarray:
+        x = self._mid_x(y) + self.lateral * self.anatomy.artery_vein_spacing / 2
+        return np.stack([x, y, -self._depth(y)], axis=1)
+
+    def vein(self, y: np.ndarray) -> np.ndarray:
+        a = self.anatomy
+        x = self._mid_x(y) - self.lateral * a.artery_vein_spacing / 2
+        return np.stack([x, y, -(self._depth(y) + a.vein_depth_offset)], axis=1)
+
+
+def build_vessels(
+    anatomy: FemoralAnatomy, body: BodySpec, lateral: float
+) -> tuple[VesselSpec, ...]:
+    """CFA, SFA, DFA, CFV, FV and GSV tubes spanning the body along y."""
+    from sim.phantom.spec import ARTERY, VEIN, VesselSpec
+
+    a = anatomy
+    y0, y1 = -body.extent_y / 2, body.extent_y / 2
+    yb, yg = a.bifurcation_y, a.gsv_junction_y
+    if not y0 + CONTROL_STEP <= yb <= y1 - 2 * CONTROL_STEP:
+        raise ValueError(f"bifurcation_y {yb} must lie inside the body, away from its ends")
+    if not y0 + CONTROL_STEP <= yg <= y1 - a.gsv_arch - CONTROL_STEP:
+        raise ValueError(f"gsv_junction_y {yg} leaves no room for the GSV arch in the body")
+    course = _Course(a, lateral, y0)
+
+    def vessel(name: str, label: int, points: np.ndarray, radii: np.ndarray) -> VesselSpec:
+        wall = a.artery_wall if label == ARTERY else a.vein_wall
+        radii = np.broadcast_to(radii, (len(points),))
+        return VesselSpec(name, label, points, radii, wall)
+
+    proximal, distal = _stations(y0, yb, CONTROL_STEP), _stations(yb, y1, CONTROL_STEP)
+    sfa_radii = np.interp(distal - yb, [0.0, 0.015], [a.cfa_radius, a.sfa_radius])
+    fv_radii = np.interp(distal - yb, [0.0, 0.030], [a.cfv_radius, a.fv_radius])
+
+    dfa_end = min(yb + a.dfa_transition, y1 - CONTROL_STEP)
+    dfa_y = _joined(_stations(yb, dfa_end, TRANSITION_STEP), _stations(dfa_end, y1, CONTROL_STEP))
+    dfa_turn = _smoothstep((dfa_y - yb) / a.dfa_transition)
+    dfa = course.artery(dfa_y)
+    dfa[:, 0] += lateral * a.dfa_lateral * dfa_turn
+    dfa[:, 2] -= a.dfa_drop * dfa_turn
+
+    arch_end = yg + a.gsv_arch
+    gsv_y = _joined(_stations(yg, arch_end, TRANSITION_STEP), _stations(arch_end, y1, CONTROL_STEP))
+    gsv_rise = _smoothstep((gsv_y - yg) / a.gsv_arch)
+    gsv = course.vein(gsv_y)
+    gsv[:, 0] -= lateral * a.gsv_medial * gsv_rise
+    gsv[:, 2] = gsv[:, 2] * (1.0 - gsv_rise) - a.gsv_depth * gsv_rise
+
+    return (
+        vessel("CFA", ARTERY, course.artery(proximal), np.asarray(a.cfa_radius)),
+        vessel("SFA", ARTERY, course.artery(distal), sfa_radii),
+        vessel("DFA", ARTERY, dfa, np.asarray(a.dfa_radius)),
+        vessel("CFV", VEIN, course.vein(proximal), np.asarray(a.cfv_radius)),
+        vessel("FV", VEIN, course.vein(distal), fv_radii),
+        vessel("GSV", VEIN, gsv, np.asarray(a.gsv_radius)),
+    )
+
+
+def build_bones(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> tuple[VesselSpec, ...]:
+    """The femur as a straight, slightly oblique tube along y (none if `femur_depth` is None)."""
+    from sim.phantom.spec import VesselSpec
+
+    a = anatomy
+    if a.femur_depth is None:
+        return ()
+    y = np.linspace(-body.extent_y / 2, body.extent_y / 2, 3)
+    x = lateral * (a.femur_lateral + a.femur_tilt * y)
+    z = np.full(3, -(a.femur_depth + a.femur_radius))
+    return (VesselSpec("femur", 0, np.stack([x, y, z], axis=1), np.full(3, a.femur_radius)),)

@@ -1,0 +1,163 @@
+"""Phantom specs from YAML files (`assets/phantoms/NAME.yaml` or any path).
+
+A spec gives the body, tissue layers (outermost first; the last one, without a thickness,
+fills the rest), blood/wall/bone materials, and either `anatomy` (parameters of
+`FemoralAnatomy`, from which the femoral vessels and an optional femur are built) or explicit
+`vessels` and `bones` lists (name, label, control_points, radii, wall_thickness). `variation`
+holds the subject generator's ranges. Every problem is reported as one ValueError naming the file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from sim.assets import assets_dir
+from sim.phantom.anatomy import FemoralAnatomy, build_bones, build_vessels
+from sim.phantom.spec import BodySpec, Layer, Material, PhantomSpec, Variation, VesselSpec
+
+SCALE_KEYS = ("layer_thickness_scale", "echogenicity_scale", "noise_level")
+"""Variation keys that are not anatomy parameters."""
+ANATOMY_KEYS = tuple(f.name for f in dataclasses.fields(FemoralAnatomy))
+TOP_KEYS = {
+    "name", "description", "side", "seed", "noise_level", "body", "layers", "blood", "wall",
+    "bone", "anatomy", "vessels", "bones", "variation",
+}  # fmt: skip
+MATERIAL_KEYS = ("name", "echogenicity", "attenuation_db_cm_mhz", "impedance_mrayl")
+
+
+def phantoms_dir() -> Path:
+    """Where the named phantom specs live."""
+    return assets_dir() / "phantoms"
+
+
+def _resolve(name_or_path: str | Path) -> Path:
+    text = str(name_or_path)
+    if isinstance(name_or_path, Path) or text.endswith((".yaml", ".yml")) or "/" in text:
+        path = Path(name_or_path)
+        if not path.is_file():
+            raise ValueError(f"{path}: phantom spec file not found")
+        return path
+    path = phantoms_dir() / f"{text}.yaml"
+    if not path.is_file():
+        known = sorted(p.stem for p in phantoms_dir().glob("*.yaml"))
+        raise ValueError(f"unknown phantom {text!r}; known: {', '.join(known)} (or a YAML path)")
+    return path
+
+
+def _mapping(value: Any, what: str, allowed: tuple[str, ...] | set[str]) -> dict:
+    if not isinstance(value, dict):
+        raise ValueError(f"{what} must be a mapping, got {type(value).__name__}")
+    unknown = sorted(set(value) - set(allowed))
+    if unknown:
+        raise ValueError(f"{what}: unknown key(s) {', '.join(map(str, unknown))}")
+    return value
+
+
+def _material(value: Any, what: str) -> Material:
+    fields = _mapping(value, what, MATERIAL_KEYS)
+    missing = [key for key in MATERIAL_KEYS if key not in fields]
+    if missing:
+        raise ValueError(f"{what}: missing {', '.join(missing)}")
+    return Material(str(fields["name"]), *(float(fields[key]) for key in MATERIAL_KEYS[1:]))
+
+
+def _layers(value: Any) -> tuple[Layer, ...]:
+    if not isinstance(value, list) or not value:
+        raise ValueError("layers must be a non-empty list")
+    layers = []
+    for number, entry in enumerate(value):
+        fields = _mapping(entry, f"layers[{number}]", (*MATERIAL_KEYS, "thickness"))
+        last = number == len(value) - 1
+        if last == ("thickness" in fields):
+            raise ValueError(f"layers[{number}]: every layer but the last needs a thickness")
+        material = _material({k: v for k, v in fields.items() if k != "thickness"}, "layer")
+        thickness = math.inf if last else float(fields["thickness"])
+        layers.append(Layer(**dataclasses.asdict(material), thickness=thickness))
+    return tuple(layers)
+
+
+def _body(value: Any) -> BodySpec:
+    fields = _mapping(value, "body", ("kind", "size", "radius", "length"))
+    if "size" in fields:
+        fields = {**fields, "size": tuple(float(v) for v in fields["size"])}
+    return BodySpec(**fields)
+
+
+def _tubes(value: Any, what: str) -> tuple[VesselSpec, ...]:
+    if not isinstance(value, list):
+        raise ValueError(f"{what} must be a list")
+    keys = ("name", "label", "control_points", "radii", "wall_thickness")
+    return tuple(
+        VesselSpec(**_mapping(entry, f"{what}[{i}]", keys)) for i, entry in enumerate(value)
+    )
+
+
+def _variation(value: Any) -> Variation:
+    fields = _mapping(value or {}, "variation", ("ranges", "min_gap", "max_attempts"))
+    ranges = {}
+    for key, bounds in _mapping(
+        fields.get("ranges", {}), "variation.ranges", (*ANATOMY_KEYS, *SCALE_KEYS)
+    ).items():
+        if not (isinstance(bounds, list) and len(bounds) == 2 and bounds[0] <= bounds[1]):
+            raise ValueError(f"variation.ranges.{key} must be [low, high] with low <= high")
+        ranges[key] = (float(bounds[0]), float(bounds[1]))
+    return Variation(
+        ranges, float(fields.get("min_gap", 1.0e-3)), int(fields.get("max_attempts", 200))
+    )
+
+
+def spec_from_mapping(data: Any) -> PhantomSpec:
+    """Build a spec from parsed YAML (raises ValueError without the file name)."""
+    data = _mapping(data, "spec", TOP_KEYS)
+    if ("anatomy" in data) == ("vessels" in data):
+        raise ValueError("give exactly one of `anatomy` or `vessels`")
+    for key in ("name", "side", "body", "layers", "blood", "wall"):
+        if key not in data:
+            raise ValueError(f"missing required key `{key}`")
+    side = str(data["side"])
+    lateral = {"right": 1.0, "left": -1.0}.get(side)
+    if lateral is None:
+        raise ValueError(f"side must be right or left, got {side!r}")
+    body = _body(data["body"])
+    anatomy = None
+    if "anatomy" in data:
+        anatomy = FemoralAnatomy(**_mapping(data["anatomy"], "anatomy", ANATOMY_KEYS))
+        vessels = build_vessels(anatomy, body, lateral)
+        bones = build_bones(anatomy, body, lateral)
+    else:
+        vessels, bones = _tubes(data["vessels"], "vessels"), _tubes(data.get("bones", []), "bones")
+    bone = data.get("bone")
+    return PhantomSpec(
+        name=str(data["name"]),
+        side=side,
+        body=body,
+        layers=_layers(data["layers"]),
+        blood=_material(data["blood"], "blood"),
+        wall=_material(data["wall"], "wall"),
+        bone=None if bone is None else _material(bone, "bone"),
+        vessels=vessels,
+        bones=bones,
+        noise_level=float(data.get("noise_level", 0.2)),
+        seed=int(data.get("seed", 0)),
+        variation=_variation(data.get("variation")),
+        anatomy=anatomy,
+    )
+
+
+def load_phantom(name_or_path: str | Path) -> PhantomSpec:
+    """Load `default`, `leg` (from assets/phantoms) or a YAML file by path."""
+    path = _resolve(name_or_path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as error:
+        first_line = str(error).splitlines()[0] if str(error) else "parse error"
+        raise ValueError(f"{path}: not valid YAML ({first_line})") from error
+    try:
+        return spec_from_mapping(data)
+    except (ValueError, TypeError) as error:
+        raise ValueError(f"{path}: {error}") from error

@@ -1,0 +1,183 @@
+"""Numba kernels behind `Phantom.labels` and `Phantom.sample`: one pass over the points."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from sim.phantom.body import depth_below_skin, inside_body
+from sim.phantom.tube_kernels import (
+    INSIDE,
+    OUTSIDE,
+    STOP_SLACK,
+    locate_cell,
+    nearest_in_cell,
+    round_cone_distance,
+    round_cone_normal,
+)
+
+
+@njit(cache=True)
+def _inside_label(
+    px,
+    py,
+    pz,
+    c,
+    segments,
+    origin,
+    cell_size,
+    shape,
+    cell_start,
+    items,
+    dists,
+    state,
+    segment_label,
+):
+    """Label of the tube containing the point (0 if none), from its grid cell."""
+    if c < 0 or state[c] == OUTSIDE:
+        return 0
+    first = cell_start[c]
+    if state[c] == INSIDE:
+        return segment_label[items[first]]
+    k = c % shape[2]
+    j = (c // shape[2]) % shape[1]
+    i = c // (shape[2] * shape[1])
+    dx = px - (origin[0] + (i + 0.5) * cell_size)
+    dy = py - (origin[1] + (j + 0.5) * cell_size)
+    dz = pz - (origin[2] + (k + 0.5) * cell_size)
+    offset = math.sqrt(dx * dx + dy * dy + dz * dz) + STOP_SLACK
+    for m in range(first, cell_start[c + 1]):
+        if dists[m] - offset >= 0.0:
+            break
+        s = items[m]
+        if round_cone_distance(px, py, pz, segments[s]) < 0.0:
+            return segment_label[s]
+    return 0
+
+
+@njit(cache=True, parallel=True)
+def label_points(
+    points,
+    body_kind,
+    body_params,
+    segments,
+    origin,
+    cell_size,
+    shape,
+    cell_start,
+    items,
+    dists,
+    state,
+    segment_label,
+    out,
+):
+    """Label (0 background, 1 artery, 2 vein) of each point; 0 outside the body."""
+    for p in prange(points.shape[0]):
+        x, y, z = points[p, 0], points[p, 1], points[p, 2]
+        label = 0
+        if inside_body(body_kind, body_params, x, y, z):
+            c = locate_cell(x, y, z, origin, cell_size, shape)
+            label = _inside_label(
+                x,
+                y,
+                z,
+                c,
+                segments,
+                origin,
+                cell_size,
+                shape,
+                cell_start,
+                items,
+                dists,
+                state,
+                segment_label,
+            )
+        out[p] = label
+
+
+@njit(cache=True, parallel=True)
+def sample_points(
+    points,
+    body_kind,
+    body_params,
+    layer_bottoms,
+    blood_index,
+    bone_index,
+    segments,
+    origin,
+    cell_size,
+    shape,
+    cell_start,
+    items,
+    dists,
+    segment_tube,
+    segment_label,
+    cutoff,
+    bone_segments,
+    bone_origin,
+    bone_cell_size,
+    bone_shape,
+    bone_cell_start,
+    bone_items,
+    bone_dists,
+    bone_state,
+    bone_label,
+    label,
+    material,
+    depth,
+    distance,
+    normal,
+    index,
+):
+    """Everything the ultrasound needs per point, written into the output arrays."""
+    for p in prange(points.shape[0]):
+        x, y, z = points[p, 0], points[p, 1], points[p, 2]
+        depth[p] = depth_below_skin(body_kind, body_params, x, y, z)
+        d, s = np.inf, -1
+        c = locate_cell(x, y, z, origin, cell_size, shape)
+        if c >= 0:
+            d, s = nearest_in_cell(
+                x, y, z, c, segments, origin, cell_size, shape, cell_start, items, dists
+            )
+        if d < cutoff:
+            distance[p] = d
+            normal[p, 0], normal[p, 1], normal[p, 2] = round_cone_normal(x, y, z, segments[s])
+            index[p] = segment_tube[s]
+        else:
+            distance[p] = np.inf
+            normal[p, 0], normal[p, 1], normal[p, 2] = 0.0, 0.0, 0.0
+            index[p] = -1
+        label[p] = 0
+        material[p] = -1
+        if inside_body(body_kind, body_params, x, y, z):
+            if d < 0.0:
+                label[p] = segment_label[s]
+                material[p] = blood_index
+            else:
+                layer = 0
+                while layer < layer_bottoms.shape[0] and depth[p] > layer_bottoms[layer]:
+                    layer += 1
+                material[p] = layer
+                if bone_index >= 0:
+                    cb = locate_cell(x, y, z, bone_origin, bone_cell_size, bone_shape)
+                    if (
+                        _inside_label(
+                            x,
+                            y,
+                            z,
+                            cb,
+                            bone_segments,
+                            bone_origin,
+                            bone_cell_size,
+                            bone_shape,
+                            bone_cell_start,
+                            bone_items,
+                            bone_dists,
+                            bone_state,
+                            bone_label,
+                        )
+                        > 0
+                    ):
+                        material[p] = bone_index
