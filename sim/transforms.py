@@ -8,7 +8,7 @@ on them that several parts need, including the one conversion to and from Univer
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 RIGID_TOLERANCE = 1e-6
 
@@ -74,20 +74,39 @@ def pose_to_ur(pose: np.ndarray) -> np.ndarray:
     return np.concatenate([pose[..., :3, 3], rotvec.reshape((*pose.shape[:-2], 3))], axis=-1)
 
 
+def _slerp_quaternions(q0: np.ndarray, q1: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Spherical-linear interpolation of unit quaternion pairs (N, 4) at fractions u (N,)."""
+    dot = np.einsum("ni,ni->n", q0, q1)
+    q1 = np.where(dot[:, None] < 0.0, -q1, q1)  # take the short way round
+    angle = np.arccos(np.clip(np.abs(dot), 0.0, 1.0))
+    sine = np.sin(angle)
+    nearly_equal = sine < 1e-9
+    safe = np.where(nearly_equal, 1.0, sine)
+    w0 = np.where(nearly_equal, 1.0 - u, np.sin((1.0 - u) * angle) / safe)
+    w1 = np.where(nearly_equal, u, np.sin(u * angle) / safe)
+    q = w0[:, None] * q0 + w1[:, None] * q1
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
 def interpolate_poses(times: np.ndarray, poses: np.ndarray, query_times: np.ndarray) -> np.ndarray:
     """Poses at `query_times`: linear in position, spherical-linear (slerp) in rotation.
 
-    `times` must be strictly increasing; query times outside them are clamped to the ends,
-    because a tracker cannot report where the probe was before or after it looked.
+    `times` must be strictly increasing (any monotonic parameter: seconds, arc length);
+    queries outside them are clamped to the ends, because a tracker cannot report where the
+    probe was before or after it looked.
     """
     times = np.asarray(times, dtype=np.float64)
     poses = np.asarray(poses, dtype=np.float64)
-    query = np.clip(np.asarray(query_times, dtype=np.float64), times[0], times[-1])
+    query = np.clip(np.atleast_1d(np.asarray(query_times, dtype=np.float64)), times[0], times[-1])
     if len(times) == 1:
         return np.repeat(poses[:1], len(query), axis=0)
+    upper = np.clip(np.searchsorted(times, query, side="right"), 1, len(times) - 1)
+    lower = upper - 1
+    u = (query - times[lower]) / (times[upper] - times[lower])
+    ends = Rotation.from_matrix(poses[np.concatenate([lower, upper]), :3, :3]).as_quat()
+    rotation = _slerp_quaternions(ends[: len(query)], ends[len(query) :], u)
     out = np.zeros((len(query), 4, 4))
-    out[:, :3, :3] = Slerp(times, Rotation.from_matrix(poses[:, :3, :3]))(query).as_matrix()
-    for axis in range(3):
-        out[:, axis, 3] = np.interp(query, times, poses[:, axis, 3])
+    out[:, :3, :3] = Rotation.from_quat(rotation).as_matrix()
+    out[:, :3, 3] = (1.0 - u)[:, None] * poses[lower, :3, 3] + u[:, None] * poses[upper, :3, 3]
     out[:, 3, 3] = 1.0
     return out

@@ -1,0 +1,297 @@
+"""The scanner: run a trajectory on a robot and a probe, stream a tracked Sweep to disk.
+
+Frames and poses come from different clocks. The robot's pose is sampled every control
+period into a history; each frame's timestamp plus `time_offset` is a time on the robot's
+clock, and the frame is paired with the pose interpolated there (linear in position, slerp
+in rotation), as PLUS does with tracker and video streams. A frame is written as soon as the
+history covers its time, so a frame that arrives late is still placed where it was taken.
+
+Safety is checked here, for every backend: the whole plan before moving, every streamed
+target, every wrench reading and the robot's own fault state. Any violation, fault or Ctrl-C
+stops the robot, closes the Sweep with every frame recorded so far, and raises ScanAborted.
+"""
+
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from resus.acquisition.probe import Frame, Probe
+from resus.acquisition.robot import Robot, RobotFault
+from resus.acquisition.safety import SafetyLimits, SafetyViolation
+from resus.acquisition.trajectory import Trajectory
+from resus.errors import ResusError
+from resus.sweep_io import SweepWriter
+from sim.transforms import interpolate_poses
+
+
+@dataclass(frozen=True)
+class ScannerSettings:
+    """How the scanner runs a trajectory."""
+
+    time_offset: float = 0.0
+    """Seconds added to a frame's probe timestamp to put it on the robot clock."""
+    approach_speed: float = 0.05
+    """TCP speed of the moves to and from the path (m/s)."""
+    approach_acceleration: float = 0.5
+    """TCP acceleration of those moves (m/s^2)."""
+    settle_time: float = 5.0
+    """Longest wait for the contact force to build up before the sweep (s)."""
+    settle_tolerance: float = 0.05
+    """Relative force error within which contact counts as established..."""
+    settle_hold: float = 0.2
+    """...once it has stayed within it this long (s)."""
+    max_frame_latency: float = 0.5
+    """How long after the path ends the scanner waits for late frames (s)."""
+    progress: bool = True
+    """Show a progress bar."""
+
+
+@dataclass(frozen=True)
+class ScanResult:
+    """What a scan produced."""
+
+    path: Path
+    frames: int
+    duration: float
+    """Robot-clock seconds from the first to the last recorded frame."""
+
+
+class ScanAborted(ResusError):
+    """The scan stopped early; the Sweep at `result.path` keeps every frame recorded."""
+
+    def __init__(self, reason: str, result: ScanResult) -> None:
+        self.reason = reason
+        self.result = result
+        super().__init__(
+            f"scan stopped: {reason}; the robot was stopped and {result.path} keeps "
+            f"the {result.frames} frames recorded before it"
+        )
+
+
+class _PoseHistory:
+    """Robot-clock samples of TCP pose, wrench and joints, interpolated at any covered time."""
+
+    def __init__(self) -> None:
+        self.times: list[float] = []
+        self.poses: list[np.ndarray] = []
+        self.wrenches: list[np.ndarray] = []
+        self.joints: list[np.ndarray] = []
+
+    def record(self, robot: Robot) -> None:
+        time = robot.time()
+        if self.times and time <= self.times[-1]:
+            return
+        self.times.append(time)
+        self.poses.append(robot.tcp_pose())
+        self.wrenches.append(robot.tcp_wrench())
+        self.joints.append(robot.joint_positions())
+
+    @property
+    def latest(self) -> float:
+        return self.times[-1] if self.times else -np.inf
+
+    def at(self, time: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pose, wrench and joints at `time` from the two samples around it."""
+        upper = min(max(bisect.bisect_left(self.times, time), 1), len(self.times) - 1)
+        lower = upper - 1
+        if lower < 0:  # a single sample
+            return self.poses[0], self.wrenches[0], self.joints[0]
+        t0, t1 = self.times[lower], self.times[upper]
+        pose = interpolate_poses(
+            np.array([t0, t1]), np.stack([self.poses[lower], self.poses[upper]]), np.array([time])
+        )[0]
+        weight = float(np.clip((time - t0) / (t1 - t0), 0.0, 1.0))
+        wrench = (1 - weight) * self.wrenches[lower] + weight * self.wrenches[upper]
+        joints = (1 - weight) * self.joints[lower] + weight * self.joints[upper]
+        return pose, wrench, joints
+
+
+class Scanner:
+    """Runs trajectories on one robot and one probe under one set of safety limits."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        probe: Probe,
+        limits: SafetyLimits | None = None,
+        settings: ScannerSettings | None = None,
+    ) -> None:
+        self.robot = robot
+        self.probe = probe
+        self.limits = limits or SafetyLimits()
+        self.settings = settings or ScannerSettings()
+
+    def check_plan(self, trajectory: Trajectory) -> None:
+        """Refuse, before anything moves, a plan that breaks a safety limit."""
+        samples = trajectory.poses_at(np.linspace(0.0, trajectory.duration, 200))
+        approach = [trajectory.approach_pose(samples[0]), trajectory.approach_pose(samples[-1])]
+        reasons = self.limits.plan_violations(
+            np.concatenate([np.stack(approach), samples]),
+            trajectory.speed,
+            trajectory.contact_force,
+        )
+        if reasons:
+            raise SafetyViolation(f"unsafe plan '{trajectory.name}': " + "; ".join(reasons))
+
+    def run(
+        self, trajectory: Trajectory, out_path: str | Path, *, source: str, subject: str = ""
+    ) -> ScanResult:
+        """Scan along `trajectory`, writing the Sweep to `out_path` as frames arrive."""
+        self.check_plan(trajectory)
+        out_path = Path(out_path)
+        rows, cols = self.probe.shape
+        writer = SweepWriter(
+            out_path,
+            (rows, cols),
+            self.probe.image_to_probe,
+            with_labels=self.probe.has_labels,
+            with_wrench=True,
+            with_joints=True,
+            source=source,
+            subject=subject,
+        )
+        recorded = _Recording(writer)
+        with writer:
+            try:
+                self._approach(trajectory)
+                self._sweep(trajectory, recorded)
+                self._leave(trajectory)
+            except (SafetyViolation, RobotFault, KeyboardInterrupt) as error:
+                self._halt()
+                reason = "interrupted" if isinstance(error, KeyboardInterrupt) else str(error)
+                raise ScanAborted(reason, recorded.result(out_path)) from None
+        return recorded.result(out_path)
+
+    def _approach(self, trajectory: Trajectory) -> None:
+        """Move above the start, then descend into contact (force mode) or onto the path."""
+        start = trajectory.pose_at(0.0)
+        settings = self.settings
+        self.robot.move_linear(
+            trajectory.approach_pose(start), settings.approach_speed, settings.approach_acceleration
+        )
+        if trajectory.contact_force is None:
+            self.robot.move_linear(start, settings.approach_speed, settings.approach_acceleration)
+            return
+        self.robot.force_mode(trajectory.contact_force)
+        deadline = self.robot.time() + settings.settle_time
+        settled_since = None
+        while self.robot.time() < deadline:
+            self.robot.servo_linear(start)
+            self.robot.wait_period()
+            self._check_state()
+            now = self.robot.time()
+            force = float(self.robot.tcp_wrench()[:3] @ self.robot.tcp_pose()[:3, 2])
+            error = abs(force - trajectory.contact_force) / trajectory.contact_force
+            if error >= settings.settle_tolerance:
+                settled_since = None
+            elif settled_since is None:
+                settled_since = now
+            elif now - settled_since >= settings.settle_hold:
+                return
+        raise SafetyViolation(
+            f"no stable contact: force {force:.1f} N after {settings.settle_time} s, "
+            f"wanted {trajectory.contact_force} N"
+        )
+
+    def _sweep(self, trajectory: Trajectory, recorded: _Recording) -> None:
+        """Stream the path at the control rate and record every frame taken along it."""
+        robot, settings = self.robot, self.settings
+        history = _PoseHistory()
+        self.probe.poll()  # discard frames taken before the sweep
+        history.record(robot)
+        start_time = robot.time()
+        end_time = start_time + trajectory.duration
+        previous_target = trajectory.pose_at(0.0)
+        pending: list[Frame] = []
+        expected = int(trajectory.duration * trajectory.frame_rate)
+        with tqdm(
+            total=expected, unit="frame", desc="scanning", disable=not settings.progress
+        ) as bar:
+            while True:
+                now = robot.time()
+                target = trajectory.pose_at(now - start_time)
+                self.limits.check_target(target, previous_target, robot.control_period)
+                robot.servo_linear(target)
+                robot.wait_period()
+                previous_target = target
+                history.record(robot)
+                self._check_state()
+                pending.extend(self.probe.poll())
+                pending = self._write_covered(pending, history, recorded, start_time, end_time)
+                bar.update(recorded.frames - bar.n)
+                if now >= end_time and (not pending or now > end_time + settings.max_frame_latency):
+                    break
+
+    def _write_covered(
+        self,
+        pending: list[Frame],
+        history: _PoseHistory,
+        recorded: _Recording,
+        start_time: float,
+        end_time: float,
+    ) -> list[Frame]:
+        """Write the pending frames whose pose time the history covers; return the rest."""
+        waiting = []
+        for frame in pending:
+            time = frame.timestamp + self.settings.time_offset
+            if time > history.latest:
+                waiting.append(frame)
+            elif start_time <= time <= end_time:
+                recorded.write(frame, time, *history.at(time))
+        return waiting
+
+    def _leave(self, trajectory: Trajectory) -> None:
+        """End force mode and lift the probe off the tissue."""
+        if trajectory.contact_force is not None:
+            self.robot.force_mode_stop()
+        self.robot.move_linear(
+            trajectory.approach_pose(self.robot.tcp_pose()),
+            self.settings.approach_speed,
+            self.settings.approach_acceleration,
+        )
+
+    def _check_state(self) -> None:
+        """Raise if the robot reports a fault or the contact force is over the limit."""
+        fault = self.robot.fault()
+        if fault is not None:
+            raise RobotFault(fault)
+        self.limits.check_wrench(self.robot.tcp_wrench())
+
+    def _halt(self) -> None:
+        """Stop the robot on an abort; a robot that is already gone cannot be stopped."""
+        try:
+            self.robot.force_mode_stop()
+            self.robot.stop()
+        except RobotFault:
+            pass
+
+
+class _Recording:
+    """Counts what the writer has taken, for progress and for an aborted scan's report."""
+
+    def __init__(self, writer: SweepWriter) -> None:
+        self.writer = writer
+        self.frames = 0
+        self.first_time: float | None = None
+        self.last_time = 0.0
+
+    def write(
+        self, frame: Frame, time: float, pose: np.ndarray, wrench: np.ndarray, joints: np.ndarray
+    ) -> None:
+        if self.frames and time <= self.last_time:
+            return  # two frames on one robot-clock instant: keep the first
+        self.writer.append(
+            frame.image, pose, time, label=frame.label, wrench=wrench, joint_positions=joints
+        )
+        self.frames += 1
+        self.first_time = time if self.first_time is None else self.first_time
+        self.last_time = time
+
+    def result(self, path: Path) -> ScanResult:
+        duration = 0.0 if self.first_time is None else self.last_time - self.first_time
+        return ScanResult(path=path, frames=self.frames, duration=duration)
