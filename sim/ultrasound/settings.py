@@ -1,0 +1,89 @@
+"""Every knob of the synthetic B-mode simulator, each with a documented default."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class UltrasoundSettings:
+    """Acoustic, beam and display parameters of the B-mode simulator (SI units, dB where named).
+
+    The defaults describe a 7.5 MHz vascular linear probe on a clinical scanner: about 0.5 mm
+    lateral resolution at a 25 mm focus, a 1 mm elevational slice (from `LinearProbe`), time-gain
+    compensation for 0.5 dB/cm/MHz and a 50 dB display dynamic range.
+    """
+
+    speed_of_sound: float = 1540.0
+    """Speed of sound used for the wavelength and the pulse length (m/s)."""
+    fractional_bandwidth: float = 0.6
+    """Pulse bandwidth (full width at half maximum) as a fraction of the centre frequency;
+    sets the length of the axial Gabor pulse."""
+    lateral_resolution: float = 0.5e-3
+    """Lateral beam width (full width at half maximum) at the focal depth (m)."""
+    focal_depth: float = 0.025
+    """Depth of the transmit/receive focus below the transducer face (m)."""
+    depth_of_field: float = 0.015
+    """Distance from the focus at which the lateral beam has widened by a factor sqrt(2) (m)."""
+    scatterer_spacing: float = 0.2e-3
+    """Spacing of the phantom-fixed scatterer lattice (m). The field is interpolated between
+    nodes, so this is also the smallest speckle grain; keep it near the pixel size."""
+    elevation_samples: int = 4
+    """Planes summed across the elevational slice (weighted by its Gaussian beam profile)."""
+    tgc_attenuation: float | None = None
+    """Attenuation that time-gain compensation undoes (dB/cm/MHz): tissue that attenuates
+    exactly this much looks uniformly bright with depth; less attenuating media (blood)
+    brighten what lies below them (posterior enhancement). None: the phantom's deepest tissue
+    layer, as a sonographer would set the TGC sliders."""
+    specular_gain: float = 120.0
+    """Echo amplitude of a flat interface with reflection coefficient 1 at normal incidence,
+    relative to the root-mean-square speckle amplitude of echogenicity-1 tissue."""
+    specular_angle: float = 0.25
+    """Incidence angle (rad) between beam and interface normal at which a specular vessel-wall
+    echo has fallen to half its normal-incidence amplitude."""
+    electronic_noise_db: float = -15.0
+    """Receiver noise (RMS amplitude, dB relative to echogenicity-1 speckle) as it shows at the
+    deepest row after time-gain compensation, for a phantom whose `noise_level` is 1; it scales
+    linearly with the level. Being added before the TGC, it fades towards the face, so it
+    shows as snow in deep lumens and shadows."""
+    gain_db: float = 32.0
+    """Display gain (dB): speckle of unit root-mean-square amplitude shows at grey
+    `255 * gain_db / dynamic_range_db`."""
+    dynamic_range_db: float = 50.0
+    """Range of echo levels (dB) mapped onto grey levels 0..255 by the log compression."""
+    contact_tolerance: float = 0.5e-3
+    """Largest gap (m) between a transducer element and the skin that gel still couples;
+    columns whose element is further above the skin stay black."""
+
+    def __post_init__(self) -> None:
+        positive = (
+            "speed_of_sound",
+            "fractional_bandwidth",
+            "lateral_resolution",
+            "focal_depth",
+            "depth_of_field",
+            "scatterer_spacing",
+            "specular_angle",
+            "dynamic_range_db",
+        )
+        for name in positive:
+            if not getattr(self, name) > 0:
+                raise ValueError(
+                    f"ultrasound setting {name} must be positive, got {getattr(self, name)}"
+                )
+        tgc = self.tgc_attenuation
+        if tgc is not None and not tgc >= 0:
+            raise ValueError(f"ultrasound setting tgc_attenuation must be non-negative, got {tgc}")
+        for name in ("specular_gain", "contact_tolerance"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(
+                    f"ultrasound setting {name} must be non-negative, got {getattr(self, name)}"
+                )
+        if not 1 <= self.elevation_samples <= 16:
+            raise ValueError(
+                f"ultrasound setting elevation_samples must be 1..16, got {self.elevation_samples}"
+            )
+        if not self.specular_angle < 1.5:
+            raise ValueError(
+                f"ultrasound setting specular_angle must be below pi/2, got {self.specular_angle}"
+            )

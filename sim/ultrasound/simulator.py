@@ -1,0 +1,166 @@
+"""Synthetic B-mode frames of a vessel phantom seen by a linear probe at a given pose.
+
+One `render` call: map the pixel grid into the phantom, query the phantom once for every pixel
+centre (tissue, vessel surface, label), find which transducer elements touch the skin, then run
+the two fused kernels of `sim.ultrasound.echo`. Everything is deterministic: the speckle comes
+from scatterers fixed in the phantom frame (seeded by the phantom's seed and subject) and the
+electronic noise from a hash of the pose, so a pose always gives the same frame.
+
+Labels describe what the image shows: the phantom's label at each pixel centre, and 0 where
+the image is black because the column has no skin contact or the pixel lies in air.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+
+import numpy as np
+
+from sim.phantom import Phantom, TissueSample
+from sim.transforms import is_rigid
+from sim.ultrasound.beam import axial_pulse, elevation_profile, lateral_beam
+from sim.ultrasound.echo import form_image, grid_points, scan_lines, transpose_pair
+from sim.ultrasound.probe import LinearProbe
+from sim.ultrasound.scatterers import FIELD_COMPONENT_VARIANCE, mix_seed
+from sim.ultrasound.settings import UltrasoundSettings
+
+NOISE_COMPONENT_RMS = 1.0 / math.sqrt(3.0)
+"""RMS of a uniform [-1, 1] noise component (the hash gives uniform values)."""
+METRES_PER_CM = 0.01
+HZ_PER_MHZ = 1.0e6
+
+
+def db_to_amplitude(db: np.ndarray | float) -> np.ndarray | float:
+    """Amplitude ratio of a level in decibels."""
+    return 10.0 ** (np.asarray(db) / 20.0)
+
+
+class UltrasoundSimulator:
+    """Renders B-mode frames and exact label images of `phantom` for probe poses."""
+
+    def __init__(
+        self,
+        phantom: Phantom,
+        probe: LinearProbe | None = None,
+        settings: UltrasoundSettings | None = None,
+    ) -> None:
+        self.phantom = phantom
+        self.probe = probe = probe or LinearProbe()
+        self.settings = settings = settings or UltrasoundSettings()
+        spec = phantom.spec
+        materials = (*phantom.materials, spec.wall)
+        frequency_mhz = probe.centre_frequency / HZ_PER_MHZ
+        row_cm = probe.pixel_height / METRES_PER_CM
+        speckle_scale = 1.0 / math.sqrt(2.0 * FIELD_COMPONENT_VARIANCE)
+        self._echogenicity = np.array(
+            [m.echogenicity * speckle_scale for m in materials], dtype=np.float32
+        )
+        self._round_trip_step = np.array(
+            [
+                db_to_amplitude(-2.0 * m.attenuation_db_cm_mhz * frequency_mhz * row_cm)
+                for m in materials
+            ],
+            dtype=np.float32,
+        )
+        self._impedance = np.array([m.impedance_mrayl for m in materials], dtype=np.float32)
+        self._wall_thickness = np.array([v.wall_thickness for v in spec.vessels], dtype=np.float64)
+        if len(self._wall_thickness) == 0:
+            self._wall_thickness = np.zeros(1)
+        self._pulse = axial_pulse(probe, settings).astype(np.complex64)
+        self._lateral = lateral_beam(probe, settings)
+        offsets, weights = elevation_profile(probe, settings)
+        self._elevation_offsets = offsets
+        self._elevation_weights = weights.astype(np.float32)
+        depth_cm = (np.arange(probe.rows) + 0.5) * row_cm
+        tgc_attenuation = settings.tgc_attenuation
+        if tgc_attenuation is None:
+            tgc_attenuation = spec.layers[-1].attenuation_db_cm_mhz
+        self._tgc = db_to_amplitude(2.0 * tgc_attenuation * frequency_mhz * depth_cm).astype(
+            np.float32
+        )
+        self._seed = mix_seed(spec.seed, -1 if spec.subject is None else spec.subject)
+        noise_rms = spec.noise_level * db_to_amplitude(settings.electronic_noise_db) / self._tgc[-1]
+        self._noise_amplitude = noise_rms / (NOISE_COMPONENT_RMS * math.sqrt(2.0))
+        self._specular_exponent = math.log(0.5) / math.log(math.cos(settings.specular_angle))
+        self._grey_per_log2 = 255.0 / settings.dynamic_range_db * 10.0 * math.log10(2.0)
+        self._grey_offset = 255.0 * settings.gain_db / settings.dynamic_range_db
+        self._element_x = (np.arange(probe.cols) - (probe.cols - 1) / 2) * probe.pixel_width
+        count = probe.cols * probe.rows
+        self._points = np.empty((count, 3))
+        self._echo_real = np.empty((probe.cols, probe.rows), dtype=np.float32)
+        self._echo_imag = np.empty((probe.cols, probe.rows), dtype=np.float32)
+        self._image_lines = np.empty((probe.cols, probe.rows), dtype=np.uint8)
+        self._label_lines = np.empty((probe.cols, probe.rows), dtype=np.uint8)
+        self._image_to_probe = probe.image_to_probe()
+        self._sample = TissueSample.empty(count)
+
+    def contact(self, probe_to_phantom: np.ndarray) -> np.ndarray:
+        """(cols,) bool: whether each column's transducer element touches the skin (gel gap
+        within `contact_tolerance`, measured along the phantom's z)."""
+        elements = probe_to_phantom[:3, 0:1] * self._element_x + probe_to_phantom[:3, 3:4]
+        with np.errstate(invalid="ignore"):
+            gap = elements[2] - self.phantom.skin_height(elements[0], elements[1])
+            return gap <= self.settings.contact_tolerance
+
+    def render(self, probe_to_phantom: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """B-mode image and label image, each (rows, cols) uint8, for the probe at
+        `probe_to_phantom` (4x4, the TCP pose in the phantom frame, metres)."""
+        pose = np.asarray(probe_to_phantom, dtype=np.float64)
+        if pose.shape != (4, 4) or not is_rigid(pose):
+            raise ValueError(
+                f"probe_to_phantom must be a rigid 4x4 pose, got shape {pose.shape}"
+                + ("" if pose.shape != (4, 4) else " that is not rigid or not finite")
+            )
+        probe = self.probe
+        pixel_to_phantom = pose @ self._image_to_probe
+        origin = np.ascontiguousarray(pixel_to_phantom[:3, 3])
+        col_step = np.ascontiguousarray(pixel_to_phantom[:3, 0])
+        row_step = np.ascontiguousarray(pixel_to_phantom[:3, 1])
+        grid_points(origin, col_step, row_step, probe.rows, self._points)
+        sample = self.phantom.sample(self._points, out=self._sample)
+        contact = self.contact(pose)
+        scan_lines(
+            origin,
+            col_step,
+            row_step,
+            np.ascontiguousarray(pose[:3, 1]),
+            self._elevation_offsets,
+            self._elevation_weights,
+            sample.material,
+            sample.vessel_distance,
+            sample.vessel_normal,
+            sample.vessel_index,
+            self._wall_thickness,
+            self._echogenicity,
+            self._round_trip_step,
+            self._impedance,
+            contact,
+            self._pulse,
+            1.0 / self.settings.scatterer_spacing,
+            self._seed,
+            self.settings.specular_gain,
+            self._specular_exponent,
+            self._echo_real,
+            self._echo_imag,
+        )
+        image = np.empty((probe.rows, probe.cols), dtype=np.uint8)
+        labels = np.empty((probe.rows, probe.cols), dtype=np.uint8)
+        frame_key = np.uint32(zlib.crc32(pose.tobytes(), int(self._seed)))
+        form_image(
+            self._echo_real,
+            self._echo_imag,
+            self._lateral,
+            self._tgc,
+            self._noise_amplitude,
+            frame_key,
+            self._grey_per_log2,
+            self._grey_offset,
+            sample.material,
+            sample.label,
+            contact,
+            self._image_lines,
+            self._label_lines,
+        )
+        transpose_pair(self._image_lines, self._label_lines, image, labels)
+        return image, labels
