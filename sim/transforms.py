@@ -74,6 +74,19 @@ def pose_to_ur(pose: np.ndarray) -> np.ndarray:
     return np.concatenate([pose[..., :3, 3], rotvec.reshape((*pose.shape[:-2], 3))], axis=-1)
 
 
+def quaternions_to_matrices(quaternions: np.ndarray) -> np.ndarray:
+    """Unit quaternions (N, 4) as scalar-last (x, y, z, w) to rotation matrices (N, 3, 3)."""
+    x, y, z, w = quaternions.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=1,
+    )
+
+
 def _slerp_quaternions(q0: np.ndarray, q1: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Spherical-linear interpolation of unit quaternion pairs (N, 4) at fractions u (N,)."""
     dot = np.einsum("ni,ni->n", q0, q1)
@@ -88,25 +101,47 @@ def _slerp_quaternions(q0: np.ndarray, q1: np.ndarray, u: np.ndarray) -> np.ndar
     return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
-def interpolate_poses(times: np.ndarray, poses: np.ndarray, query_times: np.ndarray) -> np.ndarray:
-    """Poses at `query_times`: linear in position, spherical-linear (slerp) in rotation.
+class PoseInterpolator:
+    """Poses as a function of a strictly increasing parameter (seconds, arc length): linear in
+    position, spherical-linear (slerp) in rotation; queries outside are clamped to the ends,
+    because a tracker cannot report where the probe was before or after it looked.
 
-    `times` must be strictly increasing (any monotonic parameter: seconds, arc length);
-    queries outside them are clamped to the ends, because a tracker cannot report where the
-    probe was before or after it looked.
-    """
-    times = np.asarray(times, dtype=np.float64)
-    poses = np.asarray(poses, dtype=np.float64)
-    query = np.clip(np.atleast_1d(np.asarray(query_times, dtype=np.float64)), times[0], times[-1])
-    if len(times) == 1:
-        return np.repeat(poses[:1], len(query), axis=0)
-    upper = np.clip(np.searchsorted(times, query, side="right"), 1, len(times) - 1)
-    lower = upper - 1
-    u = (query - times[lower]) / (times[upper] - times[lower])
-    ends = Rotation.from_matrix(poses[np.concatenate([lower, upper]), :3, :3]).as_quat()
-    rotation = _slerp_quaternions(ends[: len(query)], ends[len(query) :], u)
-    out = np.zeros((len(query), 4, 4))
-    out[:, :3, :3] = Rotation.from_quat(rotation).as_matrix()
-    out[:, :3, 3] = (1.0 - u)[:, None] * poses[lower, :3, 3] + u[:, None] * poses[upper, :3, 3]
-    out[:, 3, 3] = 1.0
-    return out
+    The rotations are turned into quaternions once, so each query is cheap (it runs on the
+    500 Hz control path)."""
+
+    def __init__(self, times: np.ndarray, poses: np.ndarray) -> None:
+        self.times = np.asarray(times, dtype=np.float64)
+        poses = np.asarray(poses, dtype=np.float64)
+        if len(self.times) != len(poses) or len(poses) == 0:
+            raise ValueError(f"need one time per pose, got {len(self.times)} and {len(poses)}")
+        if np.any(np.diff(self.times) <= 0):
+            raise ValueError("interpolation times must be strictly increasing")
+        self.positions = poses[:, :3, 3].copy()
+        self.quaternions = Rotation.from_matrix(poses[:, :3, :3]).as_quat()
+
+    def __call__(self, query_times: np.ndarray | float) -> np.ndarray:
+        """Poses (T, 4, 4) at the query times."""
+        times = self.times
+        query = np.clip(
+            np.atleast_1d(np.asarray(query_times, dtype=np.float64)), times[0], times[-1]
+        )
+        if len(times) == 1:
+            lower = upper = np.zeros(len(query), dtype=int)
+            u = np.zeros(len(query))
+        else:
+            upper = np.clip(np.searchsorted(times, query, side="right"), 1, len(times) - 1)
+            lower = upper - 1
+            u = (query - times[lower]) / (times[upper] - times[lower])
+        out = np.zeros((len(query), 4, 4))
+        rotation = _slerp_quaternions(self.quaternions[lower], self.quaternions[upper], u)
+        out[:, :3, :3] = quaternions_to_matrices(rotation)
+        out[:, :3, 3] = (1.0 - u)[:, None] * self.positions[lower] + u[:, None] * self.positions[
+            upper
+        ]
+        out[:, 3, 3] = 1.0
+        return out
+
+
+def interpolate_poses(times: np.ndarray, poses: np.ndarray, query_times: np.ndarray) -> np.ndarray:
+    """Poses at `query_times` (see `PoseInterpolator`), for a one-off query."""
+    return PoseInterpolator(times, poses)(query_times)

@@ -14,6 +14,7 @@ stops the robot, closes the Sweep with every frame recorded so far, and raises S
 from __future__ import annotations
 
 import bisect
+import itertools
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -199,31 +200,37 @@ class Scanner:
         )
 
     def _sweep(self, trajectory: Trajectory, recorded: _Recording) -> None:
-        """Stream the path at the control rate and record every frame taken along it."""
+        """Stream the path at the control rate and record every frame taken along it.
+
+        The path is sampled once at the control period (target k is the plan at k periods),
+        as a fixed-rate servo loop does; after the last target the probe holds still until
+        the frames still in flight have arrived.
+        """
         robot, settings = self.robot, self.settings
+        periods = int(np.ceil(trajectory.duration / robot.control_period))
+        targets = trajectory.poses_at(np.arange(periods + 1) * robot.control_period)
         history = _PoseHistory()
         self.probe.poll()  # discard frames taken before the sweep
         history.record(robot)
         start_time = robot.time()
         end_time = start_time + trajectory.duration
-        previous_target = trajectory.pose_at(0.0)
         pending: list[Frame] = []
         expected = int(trajectory.duration * trajectory.frame_rate)
         with tqdm(
             total=expected, unit="frame", desc="scanning", disable=not settings.progress
         ) as bar:
-            while True:
-                now = robot.time()
-                target = trajectory.pose_at(now - start_time)
-                self.limits.check_target(target, previous_target, robot.control_period)
+            for period in itertools.count():
+                target = targets[min(period, periods)]
+                previous = targets[max(min(period, periods) - 1, 0)]
+                self.limits.check_target(target, previous, robot.control_period)
                 robot.servo_linear(target)
                 robot.wait_period()
-                previous_target = target
                 history.record(robot)
                 self._check_state()
                 pending.extend(self.probe.poll())
                 pending = self._write_covered(pending, history, recorded, start_time, end_time)
                 bar.update(recorded.frames - bar.n)
+                now = robot.time()
                 if now >= end_time and (not pending or now > end_time + settings.max_frame_latency):
                     break
 

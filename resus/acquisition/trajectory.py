@@ -5,7 +5,9 @@ position and by slerp in rotation. Its length counts a rotation as the arc that 
 `rotation_radius` below the probe face sweeps, so a fan (pure rocking) has a length and a speed
 too. The time law accelerates at `acceleration` to `speed`, cruises, and decelerates to rest.
 Saved as YAML (schema `resus.trajectory/1`) with poses as UR `[x, y, z, rx, ry, rz]`, so the
-same file runs in simulation, on the emulator and on a real robot.
+same file runs in simulation, on the emulator and on a real robot. `imaging_segments` marks the
+stretches of path whose frames are meant for the volume (a raster's passes, not its U-turns);
+frames elsewhere are recorded but may be discarded.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from resus.errors import ResusError
-from sim.transforms import interpolate_poses, is_rigid, pose_from_ur, pose_to_ur
+from sim.transforms import PoseInterpolator, is_rigid, pose_from_ur, pose_to_ur
 
 SCHEMA = "resus.trajectory/1"
 
@@ -45,6 +47,8 @@ class Trajectory:
     name: str = "trajectory"
     pattern: dict = field(default_factory=dict)
     """The pattern parameters the path was made from (provenance, not used to run it)."""
+    imaging_segments: tuple[tuple[float, float], ...] | None = None
+    """Arc-length intervals (m) whose frames are for imaging, in path order; None: all of it."""
 
     def __post_init__(self) -> None:
         waypoints = np.asarray(self.waypoints, dtype=np.float64)
@@ -63,6 +67,21 @@ class Trajectory:
             raise ResusError(f"trajectory approach_height must be >= 0, got {self.approach_height}")
         if self.path_length <= 0:
             raise ResusError("trajectory waypoints do not move: path length is zero")
+        if self.imaging_segments is not None:
+            segments = tuple((float(a), float(b)) for a, b in self.imaging_segments)
+            bounds = np.array(segments).ravel()
+            tolerance = 1e-9 + 1e-9 * self.path_length
+            if (
+                not segments
+                or np.any(np.diff(bounds) <= 0)
+                or bounds[0] < -tolerance
+                or bounds[-1] > self.path_length + tolerance
+            ):
+                raise ResusError(
+                    "trajectory imaging_segments must be increasing, non-overlapping arc-length "
+                    f"intervals within [0, {self.path_length:.4f}] m, got {list(segments)}"
+                )
+            object.__setattr__(self, "imaging_segments", segments)
         repeated = np.flatnonzero(self.segment_lengths <= 0)
         if repeated.size:
             raise ResusError(f"trajectory waypoints {repeated[0]} and {repeated[0] + 1} coincide")
@@ -109,6 +128,16 @@ class Trajectory:
         falling = peak * falling_t - 0.5 * accel * falling_t**2
         return rising + cruising + falling
 
+    def imaging_segment_at(self, t: np.ndarray | float) -> np.ndarray:
+        """Index of the imaging segment the path is in at time t, -1 outside every segment."""
+        s = self.arc_length_at(t)
+        if self.imaging_segments is None:
+            return np.zeros(np.shape(s), dtype=np.int64)
+        index = np.full(np.shape(s), -1, dtype=np.int64)
+        for k, (low, high) in enumerate(self.imaging_segments):
+            index[(s >= low) & (s <= high)] = k
+        return index
+
     def pose_at(self, t: float) -> np.ndarray:
         """TCP pose (4x4, base frame) at time t."""
         return self.poses_at(np.array([t]))[0]
@@ -118,9 +147,14 @@ class Trajectory:
         """Arc length at each waypoint."""
         return np.concatenate([[0.0], np.cumsum(self.segment_lengths)])
 
+    @cached_property
+    def _along_path(self) -> PoseInterpolator:
+        """TCP pose as a function of arc length."""
+        return PoseInterpolator(self._knots, self.waypoints)
+
     def poses_at(self, times: np.ndarray) -> np.ndarray:
         """TCP poses (T, 4, 4) at each time."""
-        return interpolate_poses(self._knots, self.waypoints, self.arc_length_at(times))
+        return self._along_path(self.arc_length_at(times))
 
     def approach_pose(self, pose: np.ndarray) -> np.ndarray:
         """`pose` lifted by approach_height against its own z axis (out of the tissue)."""
@@ -140,6 +174,11 @@ class Trajectory:
             "approach_height": self.approach_height,
             "rotation_radius": self.rotation_radius,
             "pattern": self.pattern,
+            "imaging_segments": (
+                None
+                if self.imaging_segments is None
+                else [[float(a), float(b)] for a, b in self.imaging_segments]
+            ),
             "waypoints": [[float(v) for v in pose] for pose in pose_to_ur(self.waypoints)],
         }
         Path(path).write_text(yaml.safe_dump(document, sort_keys=False))
@@ -171,6 +210,7 @@ class Trajectory:
                 rotation_radius=float(document.get("rotation_radius", 0.05)),
                 name=str(document.get("name", path.stem)),
                 pattern=dict(document.get("pattern") or {}),
+                imaging_segments=document.get("imaging_segments"),
             )
         except ResusError as error:
             raise ResusError(str(error), path) from None
