@@ -1,0 +1,93 @@
+"""`resus train`: fit the segmentation U-Net in one of the paper's regimes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+
+def register(app: typer.Typer) -> None:
+    """Add the `train` command to the root app."""
+
+    @app.command("train")
+    def train_command(
+        sweeps: Annotated[
+            list[Path],
+            typer.Option(help="Labelled sweep file or directory of them (repeat for more)."),
+        ],
+        out: Annotated[
+            Path, typer.Option(help="Output folder: checkpoint.pt, curves.png, metrics.json.")
+        ],
+        reslices: Annotated[
+            list[Path] | None,
+            typer.Option(help="Reslice dataset file or directory (repeat); for --regime resus."),
+        ] = None,
+        regime: Annotated[str, typer.Option(help="us, imagenet, aug or resus.")] = "us",
+        preset: Annotated[str, typer.Option(help="quick (CPU, minutes) or paper (GPU).")] = "quick",
+        device: Annotated[str, typer.Option(help="auto (CUDA when present), cpu, cuda.")] = "auto",
+        seed: Annotated[int, typer.Option(help="Seeds weights, data order, augmentation.")] = 0,
+        weights: Annotated[
+            Path | None,
+            typer.Option(help="Local torchvision ResNet state dict for --regime imagenet."),
+        ] = None,
+        test_subject: Annotated[
+            str | None,
+            typer.Option(help="Hold this subject out and report its IoU (one LOSO fold)."),
+        ] = None,
+    ) -> None:
+        """Train a U-Net on labelled sweeps (plus reslices of the training subjects)."""
+        from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
+        from resus.segmentation.loso import make_split, run_regime, unavailable_reason
+        from resus.segmentation.model import resolve_device
+        from resus.segmentation.presets import get_preset
+
+        settings = get_preset(preset)
+        torch_device = resolve_device(device)
+        frames = load_sweep_frames(sweeps)
+        reslice_sets = load_reslice_sets(reslices or [])
+        out.mkdir(parents=True, exist_ok=True)
+        metrics_path = out / "metrics.json"
+        metrics = {"regime": regime, "preset": preset, "seed": seed, "test_subject": test_subject}
+        reason = unavailable_reason(regime, reslice_sets, weights)
+        if reason is not None:
+            metrics.update(status="not run", reason=reason)
+            metrics_path.write_text(json.dumps(metrics, indent=2) + "\n")
+            typer.echo(f"regime {regime} not run: {reason}; wrote {metrics_path}")
+            return
+        split = make_split(frames, reslice_sets, test_subject, settings.validation_fraction)
+        run = run_regime(
+            split,
+            regime,
+            settings,
+            seed=seed,
+            device=torch_device,
+            encoder_weights=weights,
+            out_dir=out,
+        )
+        metrics.update(
+            status="run",
+            device=str(torch_device),
+            train_subjects=run.training.config["train_subjects"],
+            train_images=run.training.config["train_images"],
+            validation_images=run.training.config["validation_images"],
+            test_iou=None if run.test_iou is None else run.test_iou.to_dict(),
+            checkpoint=str(out / "checkpoint.pt"),
+            training=run.training.summary(),
+        )
+        metrics_path.write_text(json.dumps(metrics, indent=2) + "\n")
+        best = run.training.history[run.training.best_epoch - 1]
+        typer.echo(
+            f"best epoch {run.training.best_epoch}/{len(run.training.history)}: validation loss "
+            f"{best.validation_loss:.4f}, validation IoU {best.validation_iou.mean:.3f} "
+            f"({run.training.images_per_second:.0f} images/s on {torch_device})"
+        )
+        if run.test_iou is not None:
+            iou = run.test_iou
+            typer.echo(
+                f"test subject {test_subject}: IoU artery {iou.artery:.3f}, vein {iou.vein:.3f}, "
+                f"mean {iou.mean:.3f}"
+            )
+        typer.echo(f"wrote {out / 'checkpoint.pt'}, {out / 'curves.png'}, {metrics_path}")

@@ -1,0 +1,38 @@
+"""The `aug` regime's random transforms, applied to an image and its label map together.
+
+albumentations moves the mask with every geometric transform (the flips) and leaves it out
+of the intensity ones (noise, sharpening, brightness/contrast), so labels stay aligned.
+
+Seeding: albumentations 2.0's `Compose(seed=s)` gives every transform its own generator
+seeded with the same `s`, so all their "apply?" draws coincide (with equal probabilities,
+both flips always happen together or not at all). Instead, the transforms here share one
+seeded generator and draw from it in turn: repeatable, and independent of each other.
+"""
+
+from __future__ import annotations
+
+import random
+
+import albumentations as albu
+import numpy as np
+
+from resus.segmentation.presets import AugmentationConfig
+
+
+def build_augmentation(config: AugmentationConfig, seed: int) -> albu.Compose:
+    """A seeded albumentations pipeline: call it as `augment(image=uint8, mask=uint8)`."""
+    pipeline = albu.Compose(
+        [
+            albu.HorizontalFlip(p=config.horizontal_flip_p),
+            albu.VerticalFlip(p=config.vertical_flip_p),
+            albu.GaussNoise(std_range=config.noise_std_range, p=config.noise_p),
+            albu.Sharpen(alpha=config.sharpen_alpha, p=config.sharpen_p),
+            albu.RandomBrightnessContrast(
+                brightness_limit=config.brightness_limit,
+                contrast_limit=config.contrast_limit,
+                p=config.brightness_contrast_p,
+            ),
+        ]
+    )
+    pipeline.set_random_state(np.random.default_rng(seed), random.Random(seed))
+    return pipeline

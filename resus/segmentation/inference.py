@@ -1,0 +1,53 @@
+"""Segmenting new images with a trained model.
+
+Images of any size are resized to the network's square input, and the class scores are
+resized back (bilinear) before the arg-max, so labels come out at the images' own size.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from torch import nn
+from tqdm import tqdm
+
+from resus.errors import ResusError
+from resus.segmentation.data import images_to_tensor, resize_images
+
+
+@torch.no_grad()
+def predict(
+    model: nn.Module,
+    images: np.ndarray,
+    *,
+    image_size: int,
+    batch_size: int = 32,
+    progress: bool = False,
+) -> np.ndarray:
+    """(N, H, W) uint8 images (array or h5py dataset) -> (N, H, W) uint8 labels, batched.
+
+    Runs on the model's device; `image_size` is the size the model was trained at.
+    """
+    if len(images.shape) != 3 or images.dtype != np.uint8:
+        raise ResusError(f"predict needs (N, H, W) uint8 images, got {images.shape} {images.dtype}")
+    device = next(model.parameters()).device
+    was_training = model.training
+    model.eval()
+    count, height, width = images.shape
+    labels = np.empty((count, height, width), dtype=np.uint8)
+    starts = range(0, count, batch_size)
+    for start in tqdm(starts, desc="segment", unit="batch", disable=not progress):
+        batch = np.asarray(images[start : start + batch_size])
+        logits = model(images_to_tensor(resize_images(batch, image_size)).to(device))
+        if (height, width) != (image_size, image_size):
+            logits = nn.functional.interpolate(logits, size=(height, width), mode="bilinear")
+        labels[start : start + len(batch)] = logits.argmax(1).to(torch.uint8).cpu().numpy()
+    model.train(was_training)
+    return labels
+
+
+def segment_sweep(
+    model: nn.Module, sweep: object, *, image_size: int, batch_size: int = 32
+) -> np.ndarray:
+    """Labels for every frame of a sweep (anything with a `frames` (N, H, W) uint8 array)."""
+    return predict(model, sweep.frames, image_size=image_size, batch_size=batch_size, progress=True)

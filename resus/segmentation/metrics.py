@@ -1,0 +1,57 @@
+"""Intersection over union for artery and vein.
+
+IoU is pooled over all images of a set (one subject's test frames): intersections and unions
+are summed first, then divided, so frames with tiny or no vessels do not dominate as they
+would in a per-frame mean. When a class is absent from both prediction and truth the IoU is
+1.0: predicting nothing where there is nothing is exactly right. The mean is over artery and
+vein (background excluded).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+VESSEL_CLASSES: dict[str, int] = {"artery": 1, "vein": 2}
+
+
+def intersection_and_union(predicted: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """(2, 2) int64 counts: row per vessel class (artery, vein), columns (intersection, union)."""
+    predicted, truth = np.asarray(predicted), np.asarray(truth)
+    if predicted.shape != truth.shape:
+        raise ValueError(f"prediction shape {predicted.shape} != label shape {truth.shape}")
+    counts = np.zeros((len(VESSEL_CLASSES), 2), dtype=np.int64)
+    for row, label in enumerate(VESSEL_CLASSES.values()):
+        in_predicted, in_truth = predicted == label, truth == label
+        counts[row] = (
+            np.count_nonzero(in_predicted & in_truth),
+            np.count_nonzero(in_predicted | in_truth),
+        )
+    return counts
+
+
+@dataclass(frozen=True)
+class VesselIoU:
+    """IoU of artery and vein, and their mean."""
+
+    artery: float
+    vein: float
+
+    @property
+    def mean(self) -> float:
+        return (self.artery + self.vein) / 2
+
+    @classmethod
+    def from_counts(cls, counts: np.ndarray) -> VesselIoU:
+        """From summed `intersection_and_union` counts; an empty union scores 1.0."""
+        ious = [1.0 if union == 0 else intersection / union for intersection, union in counts]
+        return cls(*(float(iou) for iou in ious))
+
+    def to_dict(self) -> dict[str, float]:
+        return {**asdict(self), "mean": self.mean}
+
+
+def vessel_iou(predicted: np.ndarray, truth: np.ndarray) -> VesselIoU:
+    """Pooled IoU of label maps of any (matching) shape."""
+    return VesselIoU.from_counts(intersection_and_union(predicted, truth))

@@ -1,0 +1,142 @@
+"""Training presets: every knob of a segmentation run, named and documented.
+
+`paper` is the paper's configuration (U-Net with a ResNet34 encoder, Adam 1e-4, batch 8,
+256 x 256); it needs a GPU to finish in reasonable time. `quick` is a tiny U-Net at 64 x 64
+that trains at about 200 images/s on a 2-core CPU; tests and the demo use it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+from resus.errors import ResusError
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """The network's architecture; saved with every checkpoint so it can be rebuilt."""
+
+    encoder_name: str = "resnet34"
+    """smp / torchvision ResNet name of the encoder."""
+    encoder_depth: int = 5
+    """Number of encoder stages (downsamplings) used, 1..5."""
+    decoder_channels: tuple[int, ...] = (256, 128, 64, 32, 16)
+    """Channels of each decoder block; one per encoder stage."""
+    image_size: int = 256
+    """Side of the square network input (pixels); images are resized to it and back."""
+    classes: int = 3
+    """Output classes: 0 background, 1 artery, 2 vein."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "decoder_channels", tuple(int(c) for c in self.decoder_channels))
+        if len(self.decoder_channels) != self.encoder_depth:
+            raise ResusError(
+                f"model needs one decoder channel count per encoder stage: depth "
+                f"{self.encoder_depth}, decoder_channels {self.decoder_channels}"
+            )
+        if self.image_size % (2**self.encoder_depth):
+            raise ResusError(
+                f"model image_size {self.image_size} must be divisible by "
+                f"2**encoder_depth = {2**self.encoder_depth}"
+            )
+
+    def to_dict(self) -> dict:
+        """JSON-able form (lists for tuples)."""
+        data = asdict(self)
+        data["decoder_channels"] = list(self.decoder_channels)
+        return data
+
+    @classmethod
+    def from_dict(cls, data: dict) -> ModelConfig:
+        """Inverse of `to_dict`."""
+        return cls(**{**data, "decoder_channels": tuple(data["decoder_channels"])})
+
+
+@dataclass(frozen=True)
+class AugmentationConfig:
+    """The `aug` regime's random transforms (albumentations 2), applied to image and mask."""
+
+    horizontal_flip_p: float = 0.5
+    """Probability of a left-right flip."""
+    vertical_flip_p: float = 0.5
+    """Probability of an up-down flip."""
+    noise_p: float = 0.5
+    """Probability of additive Gaussian noise."""
+    noise_std_range: tuple[float, float] = (0.02, 0.08)
+    """Noise standard deviation as a fraction of 255 (albumentations' default is far stronger)."""
+    sharpen_p: float = 0.5
+    """Probability of unsharp-kernel sharpening."""
+    sharpen_alpha: tuple[float, float] = (0.2, 0.5)
+    """Blend of the sharpened image into the original."""
+    brightness_contrast_p: float = 0.5
+    """Probability of a brightness/contrast change."""
+    brightness_limit: float = 0.2
+    """Brightness shift up to this fraction of 255, either way."""
+    contrast_limit: float = 0.2
+    """Contrast scaled by up to this fraction, either way."""
+
+
+@dataclass(frozen=True)
+class TrainingPreset:
+    """Everything a training run needs besides its data, regime, seed and device."""
+
+    name: str
+    model: ModelConfig
+    learning_rate: float = 1e-4
+    """Adam learning rate."""
+    batch_size: int = 8
+    """Training images per optimiser step."""
+    max_epochs: int = 100
+    """Upper bound on passes over the training set."""
+    patience: int = 10
+    """Stop after this many epochs without a lower validation loss; the best epoch is kept."""
+    validation_fraction: float = 0.15
+    """Share of each training subject's frames held out for validation (the last block of
+    each frame set, so neighbouring frames of a sweep rarely straddle the split)."""
+    cross_entropy: bool = True
+    """Add cross-entropy to the Dice loss. smp's multiclass Dice ignores classes absent from
+    a batch, so alone it never penalises vessels predicted on vessel-free frames."""
+    evaluation_batch_size: int = 32
+    """Images per forward pass when validating and predicting."""
+    augmentation: AugmentationConfig = field(default_factory=AugmentationConfig)
+    """Transforms used by the `aug` regime (other regimes train on unaltered images)."""
+
+    def __post_init__(self) -> None:
+        if not 0 < self.validation_fraction < 1:
+            raise ResusError(
+                f"preset validation_fraction must be in (0, 1), got {self.validation_fraction}"
+            )
+        for name in ("batch_size", "max_epochs", "patience", "evaluation_batch_size"):
+            if getattr(self, name) < 1:
+                raise ResusError(f"preset {name} must be at least 1, got {getattr(self, name)}")
+
+    def to_dict(self) -> dict:
+        """JSON-able form, stored in checkpoints and metrics files."""
+        data = asdict(self)
+        data["model"] = self.model.to_dict()
+        return data
+
+
+QUICK = TrainingPreset(
+    name="quick",
+    model=ModelConfig(
+        encoder_name="resnet18", encoder_depth=3, decoder_channels=(32, 16, 8), image_size=64
+    ),
+    learning_rate=1e-3,
+    max_epochs=8,
+    patience=3,
+    validation_fraction=0.2,
+)
+"""Tiny and fast (CPU, minutes): for tests, demos and smoke runs, not for results."""
+
+PAPER = TrainingPreset(name="paper", model=ModelConfig())
+"""The paper's settings: U-Net/ResNet34, Adam 1e-4, batch 8, 256 x 256 (needs a GPU)."""
+
+PRESETS: dict[str, TrainingPreset] = {preset.name: preset for preset in (QUICK, PAPER)}
+
+
+def get_preset(name: str) -> TrainingPreset:
+    """The preset called `name`, or a ResusError listing the choices."""
+    if name not in PRESETS:
+        raise ResusError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
+    return PRESETS[name]

@@ -1,0 +1,217 @@
+"""Fitting one U-Net: seeded, early-stopped on validation loss, best epoch kept.
+
+Adam on Dice (+ cross-entropy), one pass over the shuffled training images per epoch, then
+validation loss and pooled IoU on the validation images. Training stops after `patience`
+epochs without a lower validation loss, and the model returned (and checkpointed) is the one
+from the best epoch. With the same seed, data and device, two runs give the same weights.
+"""
+
+from __future__ import annotations
+
+import random
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+from torch.utils.data import DataLoader
+from tqdm import tqdm
+
+from resus.errors import ResusError
+from resus.segmentation.augment import build_augmentation
+from resus.segmentation.checkpoint import save_checkpoint
+from resus.segmentation.data import LabelledImages, SegmentationDataset
+from resus.segmentation.losses import SegmentationLoss
+from resus.segmentation.metrics import VesselIoU, intersection_and_union
+from resus.segmentation.model import build_model, resolve_device
+from resus.segmentation.presets import TrainingPreset
+
+
+@dataclass(frozen=True)
+class EpochRecord:
+    """What one epoch achieved."""
+
+    epoch: int
+    train_loss: float
+    validation_loss: float
+    validation_iou: VesselIoU
+    images_per_second: float
+    """Training throughput of the epoch (forward, backward, step and data loading)."""
+
+    def to_dict(self) -> dict:
+        return {
+            "epoch": self.epoch,
+            "train_loss": self.train_loss,
+            "validation_loss": self.validation_loss,
+            "validation_iou": self.validation_iou.to_dict(),
+            "images_per_second": self.images_per_second,
+        }
+
+
+@dataclass
+class TrainingResult:
+    """The best model, its checkpoint config and the per-epoch history."""
+
+    model: nn.Module
+    config: dict
+    history: list[EpochRecord]
+    best_epoch: int
+    stopped_early: bool
+
+    @property
+    def images_per_second(self) -> float:
+        """Mean training throughput over all epochs."""
+        return float(np.mean([record.images_per_second for record in self.history]))
+
+    def summary(self) -> dict:
+        """JSON-able summary for metrics files."""
+        best = self.history[self.best_epoch - 1]
+        return {
+            "best_epoch": self.best_epoch,
+            "epochs_run": len(self.history),
+            "stopped_early": self.stopped_early,
+            "best_validation_loss": best.validation_loss,
+            "best_validation_iou": best.validation_iou.to_dict(),
+            "images_per_second": self.images_per_second,
+            "history": [record.to_dict() for record in self.history],
+        }
+
+
+def seed_everything(seed: int) -> None:
+    """Seed Python, numpy and torch (and ask cuDNN for deterministic kernels)."""
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
+    torch.backends.cudnn.deterministic = True
+    torch.backends.cudnn.benchmark = False
+
+
+def train_model(
+    train_sets: Sequence[LabelledImages],
+    validation_sets: Sequence[LabelledImages],
+    preset: TrainingPreset,
+    *,
+    seed: int = 0,
+    device: str | torch.device | None = None,
+    augment: bool = False,
+    encoder_weights: Path | None = None,
+    checkpoint_path: Path | None = None,
+    run_info: dict | None = None,
+    progress: bool = True,
+) -> TrainingResult:
+    """Train a U-Net on `train_sets`, early-stopping on `validation_sets`.
+
+    `augment` turns on the preset's random transforms; `encoder_weights` starts the encoder
+    from a local torchvision ResNet file. The best model is written to `checkpoint_path`
+    (when given) each time the validation loss improves; `run_info` is added to its config.
+    """
+    device = device if isinstance(device, torch.device) else resolve_device(device)
+    seed_everything(seed)
+    size = preset.model.image_size
+    augmentation = build_augmentation(preset.augmentation, seed) if augment else None
+    train_data = SegmentationDataset(train_sets, size, augmentation)
+    if not sum(len(s) for s in validation_sets):
+        raise ResusError("no validation images: a training subject needs at least 2 frames")
+    validation_data = SegmentationDataset(validation_sets, size)
+    model = build_model(preset.model, encoder_weights).to(device)
+    loader = DataLoader(
+        train_data,
+        batch_size=preset.batch_size,
+        shuffle=True,
+        generator=torch.Generator().manual_seed(seed),
+    )
+    loss_function = SegmentationLoss(preset.cross_entropy).to(device)
+    optimiser = torch.optim.Adam(model.parameters(), lr=preset.learning_rate)
+    config = {
+        "model": preset.model.to_dict(),
+        "preset": preset.to_dict(),
+        "seed": seed,
+        "augment": augment,
+        "encoder_weights": None if encoder_weights is None else str(encoder_weights),
+        "train_subjects": list(train_data.subjects),
+        "train_images": len(train_data),
+        "validation_images": len(validation_data),
+        **(run_info or {}),
+    }
+
+    history: list[EpochRecord] = []
+    best_loss, best_epoch, best_state = float("inf"), 0, None
+    epochs = tqdm(
+        range(1, preset.max_epochs + 1),
+        desc="train",
+        unit="epoch",
+        leave=False,
+        disable=not progress,
+    )
+    for epoch in epochs:
+        train_loss, seconds = train_one_epoch(model, loader, loss_function, optimiser, device)
+        validation_loss, validation_iou = evaluate(
+            model, validation_data, loss_function, preset.evaluation_batch_size
+        )
+        history.append(
+            EpochRecord(
+                epoch, train_loss, validation_loss, validation_iou, len(train_data) / seconds
+            )
+        )
+        epochs.set_postfix(
+            train=f"{train_loss:.3f}",
+            val=f"{validation_loss:.3f}",
+            iou=f"{validation_iou.mean:.3f}",
+        )
+        if not np.isfinite(validation_loss):
+            raise ResusError(
+                f"training diverged: validation loss {validation_loss} at epoch {epoch} "
+                f"(lower the preset's learning_rate)"
+            )
+        if validation_loss < best_loss:
+            best_loss, best_epoch = validation_loss, epoch
+            best_state = {key: value.detach().clone() for key, value in model.state_dict().items()}
+            config["best_epoch"] = epoch
+            if checkpoint_path is not None:
+                save_checkpoint(checkpoint_path, model, config)
+        elif epoch - best_epoch >= preset.patience:
+            break
+    model.load_state_dict(best_state)
+    stopped_early = len(history) < preset.max_epochs
+    return TrainingResult(model.eval(), config, history, best_epoch, stopped_early)
+
+
+def train_one_epoch(
+    model: nn.Module,
+    loader: DataLoader,
+    loss_function: nn.Module,
+    optimiser: torch.optim.Optimizer,
+    device: torch.device,
+) -> tuple[float, float]:
+    """One pass over `loader`: (mean loss per image, seconds taken)."""
+    model.train()
+    total, count = 0.0, 0
+    start = time.perf_counter()
+    for images, labels in loader:
+        images, labels = images.to(device), labels.to(device)
+        optimiser.zero_grad(set_to_none=True)
+        loss = loss_function(model(images), labels)
+        loss.backward()
+        optimiser.step()
+        total += loss.item() * len(images)
+        count += len(images)
+    return total / count, time.perf_counter() - start
+
+
+@torch.no_grad()
+def evaluate(
+    model: nn.Module, dataset: SegmentationDataset, loss_function: nn.Module, batch_size: int
+) -> tuple[float, VesselIoU]:
+    """Mean loss per image and pooled vessel IoU of `model` on `dataset` (no augmentation)."""
+    model.eval()
+    device = next(model.parameters()).device
+    total, counts = 0.0, np.zeros((2, 2), dtype=np.int64)
+    for images, labels in DataLoader(dataset, batch_size=batch_size):
+        images, labels = images.to(device), labels.to(device)
+        logits = model(images)
+        total += loss_function(logits, labels).item() * len(images)
+        counts += intersection_and_union(logits.argmax(1).cpu().numpy(), labels.cpu().numpy())
+    return total / len(dataset), VesselIoU.from_counts(counts)
