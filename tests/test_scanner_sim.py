@@ -108,3 +108,22 @@ def test_plan_outside_the_workspace_is_refused_before_moving(tmp_path) -> None:
         scanner.run(trajectory, path, source="sim")
     assert robot.time() == start_time
     assert not path.exists()
+
+
+def test_a_live_rerun_listener_sees_every_recorded_frame(tmp_path) -> None:
+    from rerun_readback import Recording
+
+    from resus.visualize import SweepLogger, open_recording
+
+    robot, probe, _, trajectory, path = scan(tmp_path)
+    rrd = tmp_path / "live.rrd"
+    with open_recording("test", save=rrd) as session:
+        logger = SweepLogger(session.stream, probe.image_to_probe)
+        scanner = Scanner(
+            robot, probe, settings=ScannerSettings(progress=False), listeners=[logger]
+        )
+        scanner.run(trajectory, path, source="sim")
+    sweep = read_sweep(path)
+    recording = Recording(rrd)
+    assert logger.count == len(sweep)
+    np.testing.assert_allclose(recording.times("/frame/image", "time"), sweep.timestamps)

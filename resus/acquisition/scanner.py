@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import bisect
 import itertools
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 from tqdm import tqdm
@@ -121,11 +123,14 @@ class Scanner:
         probe: Probe,
         limits: SafetyLimits | None = None,
         settings: ScannerSettings | None = None,
+        listeners: Sequence[FrameSink] = (),
     ) -> None:
+        """`listeners` receive every recorded frame too (e.g. a live rerun SweepLogger)."""
         self.robot = robot
         self.probe = probe
         self.limits = limits or SafetyLimits()
         self.settings = settings or ScannerSettings()
+        self.listeners = tuple(listeners)
 
     def check_plan(self, trajectory: Trajectory) -> None:
         """Refuse, before anything moves, a plan that breaks a safety limit."""
@@ -156,7 +161,7 @@ class Scanner:
             source=source,
             subject=subject,
         )
-        recorded = _Recording(writer)
+        recorded = _Recording((writer, *self.listeners))
         with writer:
             try:
                 self._approach(trajectory)
@@ -278,11 +283,26 @@ class Scanner:
             pass
 
 
-class _Recording:
-    """Counts what the writer has taken, for progress and for an aborted scan's report."""
+class FrameSink(Protocol):
+    """Anything that takes recorded frames the way `SweepWriter.append` does."""
 
-    def __init__(self, writer: SweepWriter) -> None:
-        self.writer = writer
+    def append(
+        self,
+        frame: np.ndarray,
+        probe_to_base: np.ndarray,
+        timestamp: float,
+        label: np.ndarray | None = None,
+        wrench: np.ndarray | None = None,
+        joint_positions: np.ndarray | None = None,
+    ) -> None: ...
+
+
+class _Recording:
+    """Hands each frame to the writer and listeners; counts them for progress and for an
+    aborted scan's report."""
+
+    def __init__(self, sinks: Sequence[FrameSink]) -> None:
+        self.sinks = sinks
         self.frames = 0
         self.first_time: float | None = None
         self.last_time = 0.0
@@ -292,9 +312,10 @@ class _Recording:
     ) -> None:
         if self.frames and time <= self.last_time:
             return  # two frames on one robot-clock instant: keep the first
-        self.writer.append(
-            frame.image, pose, time, label=frame.label, wrench=wrench, joint_positions=joints
-        )
+        for sink in self.sinks:
+            sink.append(
+                frame.image, pose, time, label=frame.label, wrench=wrench, joint_positions=joints
+            )
         self.frames += 1
         self.first_time = time if self.first_time is None else self.first_time
         self.last_time = time
