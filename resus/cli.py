@@ -14,7 +14,16 @@ import typer
 
 from resus.errors import ResusError
 
-COMMAND_MODULES: tuple[str, ...] = ("resus.commands.sweep",)
+COMMAND_MODULES: tuple[str, ...] = (
+    "resus.commands.sweep",
+    "resus.commands.simulate",
+    "resus.commands.reconstruct",
+    "resus.commands.reslice",
+    "resus.commands.train",
+    "resus.commands.emulate",
+    "resus.commands.view",
+    "resus.commands.plan",
+)
 
 app = typer.Typer(
     name="resus",
