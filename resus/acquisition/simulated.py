@@ -17,6 +17,7 @@ from resus.acquisition.robot import Robot, RobotFault
 from sim.phantom import Phantom, PhantomSpec, load_phantom, make_subject
 from sim.robot.scene_config import SceneConfig
 from sim.robot.ur3e import CONTROL_PERIOD, ProtectiveStopError, SimulatedUR3e
+from sim.transforms import invert_pose
 from sim.ultrasound.probe import LinearProbe
 from sim.ultrasound.settings import UltrasoundSettings
 from sim.ultrasound.simulator import UltrasoundSimulator
@@ -112,20 +113,28 @@ class SimulatedProbeConfig:
 
 
 class SimulatedProbe(Probe):
-    """Synthetic ultrasound of the scene's phantom at the simulated robot's TCP pose."""
+    """Synthetic ultrasound of the scene's phantom at the robot's reported TCP pose.
+
+    The robot may be the in-process MuJoCo arm or any other `Robot` on the same scene (e.g.
+    `RTDERobot` talking to the emulator), since the probe only reads its TCP pose and clock.
+    """
 
     has_labels = True
 
     def __init__(
         self,
-        robot: SimulatedRobot,
+        robot: Robot,
         config: SimulatedProbeConfig | None = None,
         phantom: Phantom | None = None,
+        scene: SceneConfig | None = None,
     ) -> None:
-        """`phantom` overrides the scene's (e.g. another seed); its body must be the same."""
+        """`scene` defaults to the simulated robot's; `phantom` overrides the scene's (e.g.
+        another seed), with the same body."""
         self.robot = robot
         self.config = config or SimulatedProbeConfig()
-        self.phantom = phantom or Phantom(scene_phantom_spec(robot.scene))
+        self.scene = scene or robot.scene
+        self.phantom = phantom or Phantom(scene_phantom_spec(self.scene))
+        self._base_to_phantom = invert_pose(self.scene.phantom_to_base)
         self.simulator = UltrasoundSimulator(self.phantom, self.config.probe, self.config.settings)
         self.image_to_probe = self.config.probe.image_to_probe()
         self.shape = (self.config.probe.rows, self.config.probe.cols)
@@ -136,7 +145,7 @@ class SimulatedProbe(Probe):
         """Take a frame if one is due at the robot's present time; deliver those now late enough."""
         now = self.robot.time()
         if now >= self._next_frame_time - 1e-9:
-            image, label = self.simulator.render(self.robot.ur3e.tcp_pose_in_phantom())
+            image, label = self.simulator.render(self._base_to_phantom @ self.robot.tcp_pose())
             frame = Frame(now + self.config.clock_offset, image, label)
             self._in_flight.append((now + self.config.latency, frame))
             self._next_frame_time = max(self._next_frame_time + 1 / self.config.frame_rate, now)
