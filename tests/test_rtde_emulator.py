@@ -115,9 +115,13 @@ def test_tcp_offset_moves_the_reported_tcp(clients):
     flange = pose_from_ur(receive.getActualTCPPose())
     assert control.setTcp([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])
     assert control.getTCPOffset() == [0.0, 0.0, 0.1, 0.0, 0.0, 0.0]
-    time.sleep(0.01)
+    expected = flange[:3, 3] + 0.1 * flange[:3, 2]
+    deadline = time.monotonic() + 2.0  # the next RTDE packet may be late on a busy machine
     tcp = pose_from_ur(receive.getActualTCPPose())
-    np.testing.assert_allclose(tcp[:3, 3], flange[:3, 3] + 0.1 * flange[:3, 2], atol=1e-9)
+    while not np.allclose(tcp[:3, 3], expected, atol=1e-9) and time.monotonic() < deadline:
+        time.sleep(0.005)
+        tcp = pose_from_ur(receive.getActualTCPPose())
+    np.testing.assert_allclose(tcp[:3, 3], expected, atol=1e-9)
     assert control.setTcp([0.0] * 6)
 
 
