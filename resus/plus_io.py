@@ -23,7 +23,7 @@ from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
-import SimpleITK as sitk  # noqa: N813 (the name every SimpleITK example uses)
+import SimpleITK as sitk
 
 from resus.sweep import Sweep, SweepError, check_calibration
 from resus.sweep_io import error_summary, file_errors

@@ -1,5 +1,7 @@
 """Safety limits refuse what they should and name why."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -12,7 +14,7 @@ def test_target_outside_box_is_refused_with_the_axis() -> None:
     inside = make_pose(np.eye(3), [0.0, 0.0, 0.1])
     limits.check_target(inside, inside, 0.002)
     outside = make_pose(np.eye(3), [0.0, 0.15, 0.1])
-    with pytest.raises(SafetyViolation, match="TCP y = 0.150 m leaves the workspace box"):
+    with pytest.raises(SafetyViolation, match=re.escape("TCP y = 0.150 m leaves")):
         limits.check_target(outside, outside, 0.002)
 
 
@@ -20,10 +22,10 @@ def test_fast_target_and_high_force_are_refused() -> None:
     limits = SafetyLimits(max_speed=0.1, max_force=20.0)
     here = make_pose(np.eye(3), [0.0, 0.0, 0.1])
     jump = make_pose(np.eye(3), [0.001, 0.0, 0.1])  # 1 mm in 2 ms = 0.5 m/s
-    with pytest.raises(SafetyViolation, match="speed 0.500 m/s"):
+    with pytest.raises(SafetyViolation, match=re.escape("speed 0.500 m/s")):
         limits.check_target(jump, here, 0.002)
     limits.check_wrench(np.array([0.0, 0.0, 19.0, 0, 0, 0]))
-    with pytest.raises(SafetyViolation, match="contact force 25.0 N"):
+    with pytest.raises(SafetyViolation, match=re.escape("contact force 25.0 N")):
         limits.check_wrench(np.array([0.0, 15.0, 20.0, 0, 0, 0]))
 
 

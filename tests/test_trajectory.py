@@ -57,7 +57,11 @@ def test_yaml_round_trip(tmp_path) -> None:
     trajectory.to_yaml(tmp_path / "plan.yaml")
     loaded = Trajectory.from_yaml(tmp_path / "plan.yaml")
     np.testing.assert_allclose(loaded.waypoints, trajectory.waypoints, atol=1e-12)
-    assert (loaded.speed, loaded.contact_force, loaded.pattern) == (0.02, None, {"pattern": "linear"})
+    assert (loaded.speed, loaded.contact_force, loaded.pattern) == (
+        0.02,
+        None,
+        {"pattern": "linear"},
+    )
 
 
 @pytest.mark.parametrize(
