@@ -14,7 +14,6 @@ stops the robot, closes the Sweep with every frame recorded so far, and raises S
 from __future__ import annotations
 
 import bisect
-import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -207,13 +206,15 @@ class Scanner:
     def _sweep(self, trajectory: Trajectory, recorded: _Recording) -> None:
         """Stream the path at the control rate and record every frame taken along it.
 
-        The path is sampled once at the control period (target k is the plan at k periods),
-        as a fixed-rate servo loop does; after the last target the probe holds still until
-        the frames still in flight have arrived.
+        The path is sampled once at the control period (target k is the plan at k periods).
+        Each pass sends the target for the robot's elapsed time, so a loop that falls behind
+        real time skips targets rather than stretching the sweep; after the last target the
+        probe holds still until the frames still in flight have arrived.
         """
         robot, settings = self.robot, self.settings
-        periods = int(np.ceil(trajectory.duration / robot.control_period))
-        targets = trajectory.poses_at(np.arange(periods + 1) * robot.control_period)
+        period = robot.control_period
+        periods = int(np.ceil(trajectory.duration / period))
+        targets = trajectory.poses_at(np.arange(periods + 1) * period)
         history = _PoseHistory()
         self.probe.poll()  # discard frames taken before the sweep
         history.record(robot)
@@ -224,11 +225,13 @@ class Scanner:
         with tqdm(
             total=expected, unit="frame", desc="scanning", disable=not settings.progress
         ) as bar:
-            for period in itertools.count():
-                target = targets[min(period, periods)]
-                previous = targets[max(min(period, periods) - 1, 0)]
-                self.limits.check_target(target, previous, robot.control_period)
-                robot.servo_linear(target)
+            sent, now = 0, start_time
+            while True:
+                index = min(periods, max(sent, round((now - start_time) / period)))
+                elapsed = max(index - sent, 1) * period
+                self.limits.check_target(targets[index], targets[sent], elapsed)
+                robot.servo_linear(targets[index])
+                sent = index
                 robot.wait_period()
                 history.record(robot)
                 self._check_state()
@@ -268,11 +271,14 @@ class Scanner:
         )
 
     def _check_state(self) -> None:
-        """Raise if the robot reports a fault or the contact force is over the limit."""
+        """Raise if the robot reports a fault or the contact force is over the limit. The
+        wrench is read first, so a fault that arrives with it (a protective stop set off by
+        the force) is the reason given."""
+        wrench = self.robot.tcp_wrench()
         fault = self.robot.fault()
         if fault is not None:
             raise RobotFault(fault)
-        self.limits.check_wrench(self.robot.tcp_wrench())
+        self.limits.check_wrench(wrench)
 
     def _halt(self) -> None:
         """Stop the robot on an abort; a robot that is already gone cannot be stopped."""
