@@ -1,10 +1,9 @@
 """`resus plan` end to end, and a saved plan run unchanged in the simulator."""
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
+from cli_runner import resus
 
 from resus.acquisition.trajectory import Trajectory
 from resus.planning.simulated import simulate_plan
@@ -13,11 +12,6 @@ from resus.sweep_io import read_sweep
 from sim.ultrasound.probe import LinearProbe
 
 SMALL_PROBE = LinearProbe(cols=64, rows=64)
-
-
-def resus(*args: str) -> subprocess.CompletedProcess:
-    command = [sys.executable, "-c", "from resus.cli import main; main()", *map(str, args)]
-    return subprocess.run(command, capture_output=True, text=True, timeout=300)
 
 
 def test_good_plan_exits_0_with_a_report_and_a_bad_one_exits_1(tmp_path: Path) -> None:

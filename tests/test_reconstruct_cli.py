@@ -1,23 +1,17 @@
 """`resus reconstruct` on good and bad input, through the real console entry point."""
 
 import importlib.util
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_runner import resus
 
 from resus.volume_io import read_volume
 
 PLUS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "plus"
 SEQUENCE = PLUS / "SpinePhantomFreehand.igs.mha"
 CONFIG = PLUS / "Config_VolumeReconstruction_SpinePhantom_NN_MEAN.xml"
-
-
-def resus(*args: str) -> subprocess.CompletedProcess:
-    command = [sys.executable, "-c", "from resus.cli import main; main()", *map(str, args)]
-    return subprocess.run(command, capture_output=True, text=True, timeout=120)
 
 
 @pytest.mark.skipif(

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
+from cli_runner import resus
 from matplotlib.image import imread
 from sweep_samples import sample_sweep
 
@@ -19,16 +19,6 @@ from resus.sweep_io import read_sweep, write_sweep
 PLUS_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "plus"
 SEQUENCE = PLUS_DATA / "SpinePhantomFreehand.igs.mha"
 CONFIG = PLUS_DATA / "Config_VolumeReconstruction_SpinePhantom_NN_MEAN.xml"
-
-
-def resus(*args: object) -> subprocess.CompletedProcess:
-    """Run the console script's entry point in a fresh interpreter."""
-    return subprocess.run(
-        [sys.executable, "-c", "from resus.cli import main; main()", *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
 
 
 def assert_one_line_error(run: subprocess.CompletedProcess, *fragments: str) -> None:
