@@ -23,6 +23,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "resus.commands.emulate",
     "resus.commands.view",
     "resus.commands.plan",
+    "resus.commands.vessels",
 )
 
 app = typer.Typer(
