@@ -24,6 +24,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "resus.commands.view",
     "resus.commands.plan",
     "resus.commands.vessels",
+    "resus.commands.experiment",
 )
 
 app = typer.Typer(

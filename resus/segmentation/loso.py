@@ -197,6 +197,22 @@ class LosoResult:
     comparisons: dict[tuple[str, str, str], PairedTest] = field(default_factory=dict)
     """(regime a, regime b, metric) -> paired t-test of a - b across subjects."""
 
+    def admit(
+        self,
+        regimes: Sequence[str],
+        reslices: Sequence[LabelledImages],
+        encoder_weights: Path | None,
+    ) -> list[str]:
+        """The regimes that can run with these inputs; the others go to `not_run`, with why."""
+        runnable = []
+        for regime in regimes:
+            reason = unavailable_reason(regime, reslices, encoder_weights)
+            if reason is None:
+                runnable.append(regime)
+            else:
+                self.not_run[regime] = reason
+        return runnable
+
     def compare(self) -> None:
         """Paired t-tests of every pair of regimes that ran, on artery, vein and mean IoU."""
         self.comparisons = {}
@@ -267,13 +283,7 @@ def run_loso(
         raise ResusError(f"leave-one-subject-out needs at least 2 subjects, got {subjects}")
     device = resolve_device(device) if not isinstance(device, torch.device) else device
     result = LosoResult(subjects)
-    runnable = []
-    for regime in regimes:
-        reason = unavailable_reason(regime, reslices, encoder_weights)
-        if reason is None:
-            runnable.append(regime)
-        else:
-            result.not_run[regime] = reason
+    runnable = result.admit(regimes, reslices, encoder_weights)
     splits = {s: make_split(frames, reslices, s, preset.validation_fraction) for s in subjects}
     folds = list(itertools.product(runnable, subjects))
     for regime, subject in tqdm(folds, desc="loso", unit="run", disable=not progress):
