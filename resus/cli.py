@@ -23,6 +23,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "resus.commands.emulate",
     "resus.commands.view",
     "resus.commands.plan",
+    "resus.commands.scan",
+    "resus.commands.calibrate_time",
     "resus.commands.vessels",
     "resus.commands.experiment",
 )

@@ -26,6 +26,10 @@ from sim.transforms import is_rigid, pose_from_ur, pose_to_ur
 RUNTIME_PLAYING = 2
 """`runtime_state` of a running program."""
 REFUSAL_WAIT_PERIODS = 10
+LINK_SETTLE = 2.0
+"""Seconds `close` waits after a lost link before disconnecting: ur_rtde 1.6.5 reconnects on
+its own after a dropped link, and disconnecting while that reconnection runs crashes the
+process (segfault), so it is given time to finish or give up."""
 """Control periods to wait for the reason of a refused command to show on the receive side."""
 
 
@@ -77,6 +81,7 @@ class RTDERobot(Robot):
         self._control = None
         self._receive = None
         self._cycle_start = None
+        self._link_lost_at: float | None = None
         self._connect()
 
     # -- connection --------------------------------------------------------------------
@@ -110,18 +115,21 @@ class RTDERobot(Robot):
         self._control = self._receive = None
 
     def close(self) -> None:
-        """Stop servoing, stop the control script, disconnect; safe to call twice."""
+        """Stop servoing, stop the control script, disconnect; safe to call twice. After a
+        lost link it first lets ur_rtde's own reconnection settle (see LINK_SETTLE)."""
         control = self._control
         if control is not None and self._receive is not None and self.fault() is None:
             control.servoStop(self.config.stop_deceleration)
             control.stopScript()
+        if self._link_lost_at is not None and control is not None:
+            time.sleep(max(0.0, self._link_lost_at + LINK_SETTLE - time.monotonic()))
         self._disconnect()
 
     # -- readings ----------------------------------------------------------------------
 
     def _reader(self):
         if self._receive is None or not self._receive.isConnected():
-            raise RobotFault("connection to the UR controller lost")
+            raise RobotFault(self.fault() or "connection to the UR controller lost")
         return self._receive
 
     def tcp_pose(self) -> np.ndarray:
@@ -140,7 +148,11 @@ class RTDERobot(Robot):
         """Why the robot cannot move, from one RTDE stream so that safety and program state
         are read from the same packet (the control stream may be a cycle ahead)."""
         receive, control = self._receive, self._control
-        if receive is None or control is None or not receive.isConnected():
+        if receive is None or control is None:
+            return "connection to the UR controller lost"
+        if not receive.isConnected():
+            if self._link_lost_at is None:
+                self._link_lost_at = time.monotonic()
             return "connection to the UR controller lost"
         if not control.isConnected():
             return "control connection to the UR controller lost"
