@@ -15,6 +15,7 @@ import typer
 from resus.errors import ResusError
 
 COMMAND_MODULES: tuple[str, ...] = (
+    "resus.commands.demo",
     "resus.commands.sweep",
     "resus.commands.simulate",
     "resus.commands.reconstruct",

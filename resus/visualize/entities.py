@@ -8,6 +8,7 @@ world                      3D scene, robot base frame, z up (metres)
   phantom                  phantom_to_base (static); body outline, artery, vein meshes below
   volume                   reconstructed volume: slices/{i,j,k} quads, outline, dense
   reslices/plane           one reslice plane as a textured quad (timeline "reslice")
+  vessel_map/<labels>      mapped artery and vein surfaces and needle path, per label source
 frame/{image,labels,prediction}     the current frame in 2D
 reslice/{image,labels}              the current reslice in 2D
 signals/{force,torque,joints}       time series (N, N m, rad)
@@ -29,6 +30,7 @@ FRAME_QUAD = "world/ultrasound/frame"
 PHANTOM = "world/phantom"
 VOLUME = "world/volume"
 RESLICE_QUAD = "world/reslices/plane"
+VESSEL_MAP = "world/vessel_map"
 FRAME_2D = "frame"
 RESLICE_2D = "reslice"
 SIGNALS = "signals"
