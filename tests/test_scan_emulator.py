@@ -10,8 +10,9 @@ import faulthandler
 
 import numpy as np
 import pytest
+from cli_runner import resus
 from rerun_readback import Recording
-from scan_session import default_scene_and_phantom, positions_at, scan_and_watch, write_linear_plan
+from scan_session import default_scene_and_phantom, positions_at, scan_and_watch
 from scipy.spatial.transform import Rotation
 
 from resus.sweep_io import read_sweep
@@ -44,10 +45,21 @@ def label_mismatch(sweep) -> np.ndarray:
     return np.array(mismatch)
 
 
+def plan_file(tmp_path) -> str:
+    """A transverse 12 mm sweep (both vessels in every frame) planned by `resus plan`, 8 mm/s at
+    10 frames/s: a synthetic frame costs about 45 ms of CPU on cores shared with real-time
+    processes."""
+    plan = tmp_path / "plan.yaml"
+    planned = resus(
+        "plan", "--start", "0,-0.006", "--direction", "0,1", "--length", "0.012",
+        "--speed", "0.008", "--frame-rate", "10", "--voxel-size", "0.001", "--out", plan,
+    )  # fmt: skip
+    assert planned.returncode == 0, planned.stdout + planned.stderr
+    return str(plan)
+
+
 def test_scan_records_the_controllers_poses_the_phantoms_labels_and_the_force(tmp_path):
-    plan = write_linear_plan(
-        tmp_path / "plan.yaml", start=(0.0, -0.006), direction=(0.0, 1.0), length=0.012
-    )  # transverse: both vessels in every frame
+    plan = plan_file(tmp_path)
     out, rrd = tmp_path / "sweep.h5", tmp_path / "scan.rrd"
     with launch(arm="mujoco", scene="default") as emulator:
         watched = scan_and_watch(
@@ -75,10 +87,10 @@ def test_scan_records_the_controllers_poses_the_phantoms_labels_and_the_force(tm
         np.einsum("nji,njk->nik", watched.poses[nearest, :3, :3], sweep.probe_to_base[:, :3, :3])
     )
     assert np.degrees(relative.magnitude()).max() < 0.05
-    # The probe moved along the plan (base +y). The scanner ends the sweep by the robot clock,
-    # so on a loaded machine, where the servo loop falls behind real time, it covers less.
+    # The probe moved along the plan (base +y), all of it: the scanner sends the target for
+    # the robot's clock, so a servo loop that falls behind real time skips, not stretches.
     travel = sweep.probe_to_base[-1, :3, 3] - sweep.probe_to_base[0, :3, 3]
-    assert 0.004 < travel[1] < 0.0125 and np.abs(travel[[0, 2]]).max() < 1e-3
+    assert 0.0105 < travel[1] < 0.0125 and np.abs(travel[[0, 2]]).max() < 1e-3
 
     # Labels: every frame shows the phantom's anatomy at its recorded pose.
     assert (sweep.labels == 1).any() and (sweep.labels == 2).any()
@@ -94,3 +106,16 @@ def test_scan_records_the_controllers_poses_the_phantoms_labels_and_the_force(tm
     recording = Recording(rrd)
     np.testing.assert_allclose(recording.times("/frame/image", "time"), sweep.timestamps)
     assert {"/world/volume/slices/i", "/world/phantom", "/signals/force"} <= recording.entities
+
+
+def test_the_same_plan_file_runs_unchanged_in_the_simulator(tmp_path):
+    plan, out = plan_file(tmp_path), tmp_path / "sweep.h5"
+    done = resus(
+        "scan", "--robot", "sim", "--probe", "sim:96x96", "--trajectory", plan, "--out", out,
+        "--yes",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    sweep = read_sweep(out)
+    travel = sweep.probe_to_base[-1, :3, 3] - sweep.probe_to_base[0, :3, 3]
+    assert 0.0105 < travel[1] < 0.0125 and np.abs(travel[[0, 2]]).max() < 1e-3
+    assert label_mismatch(sweep).max() < 2e-3
