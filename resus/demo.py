@@ -13,6 +13,7 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,6 +21,11 @@ from resus.demo_report import render_report
 from resus.errors import ResusError
 from resus.experiment_data import ScanSettings, SubjectData, prepare_subjects
 from resus.simulate import LinearSweepParameters
+from resus.sweep import Sweep
+from sim.robot.scene_config import SceneConfig
+
+if TYPE_CHECKING:  # torch is imported only when training starts
+    from resus.segmentation.loso import RegimeRun
 
 DEMO_REGIMES = ("us", "resus")
 """Frames only, against frames plus reslices: the comparison RESUS is about."""
@@ -125,8 +131,8 @@ class _HeldOut:
     """The held-out subject's files, its sweep and the scene it was scanned in."""
 
     files: SubjectData
-    sweep: object
-    scene: object
+    sweep: Sweep
+    scene: SceneConfig
 
     @classmethod
     def load(cls, files: SubjectData) -> _HeldOut:
@@ -141,7 +147,7 @@ class _HeldOut:
 
 def _train_regimes(
     folder: Path, data: list[SubjectData], settings: DemoSettings, progress: bool
-) -> dict:
+) -> dict[str, RegimeRun]:
     """Quick U-Nets for frames only and frames plus reslices, tested on the last subject."""
     from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
     from resus.segmentation.loso import make_split, run_regime
@@ -161,7 +167,7 @@ def _train_regimes(
     return runs
 
 
-def _segment(run, sweep) -> np.ndarray:
+def _segment(run: RegimeRun, sweep: Sweep) -> np.ndarray:
     """A trained model's labels for every frame of the held-out sweep."""
     from resus.segmentation.inference import predict
 
@@ -219,7 +225,9 @@ def _pictures(folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray]) 
     return ["volume.png", "reslices.png", "predictions.png"]
 
 
-def _record(path: Path, test: _HeldOut, predictions: dict[str, np.ndarray], runs: dict) -> Path:
+def _record(
+    path: Path, test: _HeldOut, predictions: dict[str, np.ndarray], runs: dict[str, RegimeRun]
+) -> Path:
     """One rerun recording: the held-out scan with the RESUS model's predictions, its volume,
     reslices, phantom, vessel maps and the RESUS model's training curves."""
     from resus.reslice_dataset import ResliceDataset
@@ -254,7 +262,15 @@ def _record(path: Path, test: _HeldOut, predictions: dict[str, np.ndarray], runs
     return path
 
 
-def _summary(folder, settings, data, runs, vessels, pictures, seconds) -> dict:
+def _summary(
+    folder: Path,
+    settings: DemoSettings,
+    data: list[SubjectData],
+    runs: dict[str, RegimeRun],
+    vessels: dict[str, dict],
+    pictures: list[str],
+    seconds: dict[str, float],
+) -> dict:
     """Everything the report shows, as written to summary.json (paths relative to `folder`)."""
     test = data[-1]
     return {
