@@ -20,10 +20,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from resus.errors import ResusError
 from resus.sweep import check_calibration
+from resus.yaml_file import read_yaml
 from sim.ultrasound.probe import LinearProbe
 
 SCHEMA = "resus.probe/1"
@@ -80,12 +80,7 @@ class ProbeCalibration:
     def from_yaml(cls, path: str | Path) -> ProbeCalibration:
         """Read a calibration file; any problem is a one-line ResusError naming it."""
         path = Path(path)
-        try:
-            document = yaml.safe_load(path.read_text())
-        except FileNotFoundError:
-            raise ResusError("probe calibration file not found", path) from None
-        except (OSError, UnicodeDecodeError, yaml.YAMLError) as error:
-            raise ResusError(f"not a readable YAML file ({type(error).__name__})", path) from None
+        document = read_yaml(path, "probe calibration")
         if not isinstance(document, dict) or document.get("schema") != SCHEMA:
             raise ResusError(f"not a probe calibration file (expected schema {SCHEMA})", path)
         given = [key for key in SCALE_KEYS if document.get(key) is not None]

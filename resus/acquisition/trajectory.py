@@ -21,6 +21,7 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from resus.errors import ResusError
+from resus.yaml_file import read_yaml
 from sim.transforms import PoseInterpolator, is_rigid, pose_from_ur, pose_to_ur
 
 SCHEMA = "resus.trajectory/1"
@@ -187,13 +188,7 @@ class Trajectory:
     def from_yaml(cls, path: str | Path) -> Trajectory:
         """Read a trajectory file; any problem is a ResusError naming the file."""
         path = Path(path)
-        try:
-            document = yaml.safe_load(path.read_text())
-        except FileNotFoundError:
-            raise ResusError("trajectory file not found", path) from None
-        except (OSError, UnicodeDecodeError, yaml.YAMLError) as error:
-            reason = f"not a readable YAML trajectory ({type(error).__name__})"
-            raise ResusError(reason, path) from None
+        document = read_yaml(path, "trajectory")
         if not isinstance(document, dict) or document.get("schema") != SCHEMA:
             raise ResusError(f"not a trajectory file (expected schema {SCHEMA})", path)
         try:
