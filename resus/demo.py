@@ -136,12 +136,11 @@ class _HeldOut:
 
     @classmethod
     def load(cls, files: SubjectData) -> _HeldOut:
-        from resus.simulate import resolve_scene
+        from resus.simulate import parse_subject_id, resolve_scene
         from resus.sweep_io import read_sweep
-        from resus.vessel_pipeline import subject_from_sweep
 
         sweep = read_sweep(files.sweep)
-        phantom, subject = subject_from_sweep(sweep.subject)
+        phantom, subject = parse_subject_id(sweep.subject)
         return cls(files, sweep, resolve_scene("default", phantom, subject))
 
 

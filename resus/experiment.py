@@ -14,7 +14,6 @@ An `ExperimentPreset` fixes data size and training together; both experiments wr
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -23,7 +22,13 @@ from pathlib import Path
 import numpy as np
 
 from resus.errors import ResusError
-from resus.experiment_data import Scan, ScanSettings, prepare_scans, prepare_subjects
+from resus.experiment_data import (
+    Scan,
+    ScanSettings,
+    available_cores,
+    prepare_scans,
+    prepare_subjects,
+)
 from resus.reslice import ResliceSettings
 from resus.segmentation.presets import PAPER, QUICK, TrainingPreset
 from resus.simulate import LinearSweepParameters
@@ -134,26 +139,8 @@ def set_torch_threads() -> int:
     """Let torch use every core this process may run on (data preparation has finished)."""
     import torch
 
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    torch.set_num_threads(max(1, cores or 1))
+    torch.set_num_threads(available_cores())
     return torch.get_num_threads()
-
-
-def pooled_iou(model, sets, preset: TrainingPreset):
-    """Vessel IoU of `model` over every image of `sets` (counts summed, then divided)."""
-    from resus.segmentation.inference import predict
-    from resus.segmentation.metrics import VesselIoU, intersection_and_union
-
-    counts = np.zeros((2, 2), dtype=np.int64)
-    for images in sets:
-        predicted = predict(
-            model,
-            images.images,
-            image_size=preset.model.image_size,
-            batch_size=preset.evaluation_batch_size,
-        )
-        counts += intersection_and_union(predicted, images.labels)
-    return VesselIoU.from_counts(counts)
 
 
 def example_index(labels: np.ndarray) -> int:
@@ -180,7 +167,7 @@ def run_phantom_experiment(preset: ExperimentPreset, options: RunOptions) -> dic
     """Table I analogue; writes the report to `options.out` and returns results.json's data."""
     from resus.experiment_report import write_phantom_report
     from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
-    from resus.segmentation.loso import Split, hold_out_tail, run_regime
+    from resus.segmentation.loso import Split, hold_out_tail, pooled_iou, run_regime
     from resus.segmentation.model import resolve_device
 
     start = time.perf_counter()
@@ -289,16 +276,9 @@ def run_subjects_experiment(
     encoder_weights: Path | None = None,
 ) -> dict:
     """Table II analogue; writes the report to `options.out` and returns results.json's data."""
-    from tqdm import tqdm
-
     from resus.experiment_report import write_subjects_report
     from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
-    from resus.segmentation.loso import (
-        LosoResult,
-        make_split,
-        run_regime,
-        subjects_of,
-    )
+    from resus.segmentation.loso import RegimeRun, run_loso, subjects_of
     from resus.segmentation.model import resolve_device
 
     subjects = tuple(preset.subjects if subjects is None else subjects)
@@ -316,40 +296,34 @@ def run_subjects_experiment(
     frames = load_sweep_frames([d.sweep for d in data])
     reslices = load_reslice_sets([d.reslices for d in data])
     ids = subjects_of(frames)
-    result = LosoResult(ids)
-    runnable = result.admit(regimes, reslices, encoder_weights)
     training = preset.training
     example_set = next(s for s in frames if s.subject == ids[0])
     examples = [_example(f"held-out subject {ids[0]}, frame", example_set)]
     validation_iou: dict[str, dict[str, dict]] = {}
     training_images: dict[str, dict[str, int]] = {}
     histories = {}
-    folds = tqdm(
-        total=len(ids) * len(runnable), desc="loso", unit="run", disable=not options.progress
+
+    def record(regime: str, subject: str, run: RegimeRun) -> None:
+        """Keep each run's best validation IoU and training size; curves and example
+        predictions of the first held-out subject."""
+        best = run.training.history[run.training.best_epoch - 1]
+        validation_iou.setdefault(regime, {})[subject] = best.validation_iou.to_dict()
+        training_images.setdefault(regime, {})[subject] = run.training.config["train_images"]
+        if subject == ids[0]:
+            histories[regime] = run.training
+            _predict_examples(examples, regime, run.training.model, training)
+
+    result = run_loso(
+        frames,
+        reslices,
+        regimes,
+        training,
+        seed=options.seed,
+        device=device,
+        encoder_weights=encoder_weights,
+        progress=options.progress,
+        on_run=record,
     )
-    for subject in ids:
-        split = make_split(frames, reslices, subject, training.validation_fraction)
-        for regime in runnable:
-            folds.update()
-            run = run_regime(
-                split,
-                regime,
-                training,
-                seed=options.seed,
-                device=device,
-                encoder_weights=encoder_weights,
-                progress=options.progress,
-            )
-            result.iou.setdefault(regime, {})[subject] = run.test_iou
-            best = run.training.history[run.training.best_epoch - 1]
-            validation_iou.setdefault(regime, {})[subject] = best.validation_iou.to_dict()
-            training_images.setdefault(regime, {})[subject] = run.training.config["train_images"]
-            if subject == ids[0]:
-                histories[regime] = run.training
-                _predict_examples(examples, regime, run.training.model, training)
-    folds.close()
-    result.iou = {regime: result.iou[regime] for regime in runnable}
-    result.compare()
     results = {
         "experiment": "subjects",
         "preset": preset.to_dict(),

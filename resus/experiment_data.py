@@ -137,12 +137,15 @@ def _prepare_in_worker(job: tuple[Path, Scan, ScanSettings, int]) -> None:
     import numba
 
     out, scan, settings, jobs = job
-    numba.set_num_threads(max(1, min(numba.config.NUMBA_NUM_THREADS, _cores() // jobs)))
+    numba.set_num_threads(max(1, min(numba.config.NUMBA_NUM_THREADS, available_cores() // jobs)))
     prepare_scan(out, scan, settings)
 
 
-def _cores() -> int:
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+def available_cores() -> int:
+    """CPU cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
 
 
 def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -14,6 +15,8 @@ from resus.errors import ResusError
 from sim.assets import assets_dir
 from sim.phantom import Phantom, PhantomSpec, load_phantom, make_subject
 from sim.robot.scene_config import SceneConfig, load_scene_config
+
+SUBJECT_ID = re.compile(r"^(?P<phantom>[^/]+)/(?P<subject>nominal|\d+)$")
 
 
 def resolve_scene(scene: str | Path, phantom: str | None, subject: int | None) -> SceneConfig:
@@ -72,5 +75,20 @@ def simulate_sweep(
     probe_config = probe or SimulatedProbeConfig(frame_rate=trajectory.frame_rate)
     probe_source = SimulatedProbe(robot, probe_config, phantom)
     scanner = Scanner(robot, probe_source, settings=ScannerSettings(progress=progress))
-    subject = "nominal" if scene.subject is None else str(scene.subject)
-    return scanner.run(trajectory, out, source="sim", subject=f"{scene.phantom}/{subject}")
+    return scanner.run(trajectory, out, source="sim", subject=subject_id(scene))
+
+
+def subject_id(scene: SceneConfig) -> str:
+    """The subject a simulated Sweep records: "PHANTOM/K", or "PHANTOM/nominal"."""
+    variant = "nominal" if scene.subject is None else str(scene.subject)
+    return f"{scene.phantom}/{variant}"
+
+
+def parse_subject_id(subject: str) -> tuple[str | None, int | None]:
+    """Phantom name and subject index of a `subject_id` ("default/3" -> ("default", 3);
+    "default/nominal" -> ("default", None)), or (None, None) for any other subject text."""
+    match = SUBJECT_ID.match(subject)
+    if match is None:
+        return None, None
+    index = match["subject"]
+    return match["phantom"], None if index == "nominal" else int(index)

@@ -7,7 +7,6 @@ that `resus vessels` and `resus demo` give the same files and the same numbers.
 from __future__ import annotations
 
 import json
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -21,7 +20,6 @@ from sim.robot.scene_config import SceneConfig
 
 TARGETS = {"vein": 2, "artery": 1}
 """Needle targets and their label values: the vein for a central line, the artery for REBOA."""
-SWEEP_SUBJECT = re.compile(r"^(?P<phantom>[^/]+)/(?P<subject>nominal|\d+)$")
 
 
 @dataclass(frozen=True)
@@ -35,16 +33,6 @@ class VesselJob:
     def __post_init__(self) -> None:
         if self.target not in TARGETS:
             raise ResusError(f"--target must be vein or artery, got {self.target!r}")
-
-
-def subject_from_sweep(subject: str) -> tuple[str | None, int | None]:
-    """Phantom name and subject index that `resus simulate` recorded ("default/3",
-    "default/nominal"), or (None, None) for any other subject text."""
-    match = SWEEP_SUBJECT.match(subject)
-    if match is None:
-        return None, None
-    index = match["subject"]
-    return match["phantom"], None if index == "nominal" else int(index)
 
 
 def map_vessels(

@@ -204,7 +204,7 @@ def scan(
     from resus.acquisition.safety import SafetyLimits
     from resus.acquisition.scanner import Scanner, ScannerSettings
     from resus.acquisition.trajectory import Trajectory
-    from resus.simulate import resolve_scene
+    from resus.simulate import resolve_scene, subject_id
 
     if not out.parent.is_dir():
         raise ResusError("output folder does not exist", out.parent)
@@ -245,7 +245,9 @@ def scan(
                     rerun, rerun_save, volume_every, volume_voxel, grpc_port, web_port,
                 )  # fmt: skip
             scanner = Scanner(robot_device, probe_device, limits, settings, listeners)
-            name = subject_name if subject_name is not None else _subject(scene_config, probe_kind)
+            name = subject_name
+            if name is None:
+                name = subject_id(scene_config) if probe_kind == "sim" else ""
             result = scanner.run(
                 plan, out, source="sim" if probe_kind == "sim" else "real", subject=name
             )
@@ -260,13 +262,6 @@ def scan(
                 session.wait_until_interrupted()
     except RobotFault as fault:
         raise ResusError(f"robot {robot}: {fault}") from None
-
-
-def _subject(scene_config, probe_kind: str) -> str:
-    if probe_kind != "sim":
-        return ""
-    variant = "nominal" if scene_config.subject is None else str(scene_config.subject)
-    return f"{scene_config.phantom}/{variant}"
 
 
 def _live_listeners(

@@ -43,10 +43,10 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Map artery and vein surfaces from a sweep's labels; propose a needle site."""
         from resus.needle import NeedleSettings
-        from resus.simulate import resolve_scene
+        from resus.simulate import parse_subject_id, resolve_scene
         from resus.sweep_io import read_sweep
         from resus.vessel_map import VesselMapSettings, segment_frames
-        from resus.vessel_pipeline import VesselJob, map_vessels, subject_from_sweep
+        from resus.vessel_pipeline import VesselJob, map_vessels
 
         if (model is None) == (not labels_from_sweep):
             raise ResusError("give exactly one of --model CKPT or --labels-from-sweep")
@@ -60,7 +60,7 @@ def register(app: typer.Typer) -> None:
         if model is not None and not model.is_file():
             raise ResusError("checkpoint not found", model)
         sweep = read_sweep(sweep_path)
-        sweep_phantom, sweep_subject = subject_from_sweep(sweep.subject)
+        sweep_phantom, sweep_subject = parse_subject_id(sweep.subject)
         scene = resolve_scene(
             scene_name,
             phantom or sweep_phantom,

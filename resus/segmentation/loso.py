@@ -16,7 +16,7 @@ volume can never reach training. Regimes are compared by paired t-tests across s
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -172,19 +172,24 @@ def run_regime(
         plot_training_curves(
             training.history, training.best_epoch, Path(out_dir) / "curves.png", title
         )
-    test_iou = None
-    if split.test:
-        counts = np.zeros((2, 2), dtype=np.int64)
-        for images in split.test:
-            predicted = predict(
-                training.model,
-                images.images,
-                image_size=preset.model.image_size,
-                batch_size=preset.evaluation_batch_size,
-            )
-            counts += intersection_and_union(predicted, images.labels)
-        test_iou = VesselIoU.from_counts(counts)
+    test_iou = pooled_iou(training.model, split.test, preset) if split.test else None
     return RegimeRun(regime, split, training, test_iou)
+
+
+def pooled_iou(
+    model: torch.nn.Module, sets: Sequence[LabelledImages], preset: TrainingPreset
+) -> VesselIoU:
+    """Vessel IoU of `model` over every image of `sets` (counts summed, then divided)."""
+    counts = np.zeros((2, 2), dtype=np.int64)
+    for images in sets:
+        predicted = predict(
+            model,
+            images.images,
+            image_size=preset.model.image_size,
+            batch_size=preset.evaluation_batch_size,
+        )
+        counts += intersection_and_union(predicted, images.labels)
+    return VesselIoU.from_counts(counts)
 
 
 @dataclass
@@ -272,11 +277,13 @@ def run_loso(
     encoder_weights: Path | None = None,
     out_dir: Path | None = None,
     progress: bool = True,
+    on_run: Callable[[str, str, RegimeRun], None] | None = None,
 ) -> LosoResult:
     """Leave-one-subject-out over the subjects of `frames`, for each regime that can run.
 
     Every regime sees the same splits and seed, so per-subject scores pair up for the t-tests.
-    Checkpoints and curves go to `out_dir/REGIME/SUBJECT/` when `out_dir` is given.
+    Checkpoints and curves go to `out_dir/REGIME/SUBJECT/` when `out_dir` is given;
+    `on_run(regime, subject, run)` sees each trained run (e.g. to keep curves or predictions).
     """
     subjects = subjects_of(frames)
     if len(subjects) < 2:
@@ -298,5 +305,7 @@ def run_loso(
             progress=progress,
         )
         result.iou.setdefault(regime, {})[subject] = run.test_iou
+        if on_run is not None:
+            on_run(regime, subject, run)
     result.compare()
     return result
