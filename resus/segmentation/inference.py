@@ -44,10 +44,3 @@ def predict(
         labels[start : start + len(batch)] = logits.argmax(1).to(torch.uint8).cpu().numpy()
     model.train(was_training)
     return labels
-
-
-def segment_sweep(
-    model: nn.Module, sweep: object, *, image_size: int, batch_size: int = 32
-) -> np.ndarray:
-    """Labels for every frame of a sweep (anything with a `frames` (N, H, W) uint8 array)."""
-    return predict(model, sweep.frames, image_size=image_size, batch_size=batch_size, progress=True)

@@ -162,11 +162,6 @@ def _nearest(pose: np.ndarray, seed: np.ndarray) -> tuple[np.ndarray, bool]:
     return best, best_distance < np.inf
 
 
-def link_transform(index: int, angle: float) -> np.ndarray:
-    """DH transform from frame `index` to frame `index + 1` at joint angle `angle`."""
-    return _link(index, float(angle))
-
-
 def frame_chain(q: np.ndarray) -> np.ndarray:
     """Base-frame poses of DH frames 0..6, shape (7, 4, 4); frame 6 is the flange (tool0)."""
     return _chain(_check_joints(q))
