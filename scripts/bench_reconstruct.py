@@ -13,17 +13,22 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
+from pathlib import Path
 
 import numba
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from resus.reconstruct import ReconstructionSettings, Reconstructor
-from resus.reconstruct_reference import sdw_accumulate_numpy
-from resus.volume_grid import aabb_grid
+from resus.reconstruction.compounding import ReconstructionSettings, Reconstructor
+from resus.reconstruction.grid import aabb_grid
 from sim.transforms import make_pose
 from sim.ultrasound.probe import LinearProbe
+
+# The numpy reference is a test oracle; it lives with the tests.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from reconstruct_reference import sdw_accumulate_numpy
 
 VOXEL = 0.3e-3
 STEP = 0.3e-3

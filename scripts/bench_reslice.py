@@ -18,8 +18,8 @@ import time
 import numpy as np
 from scipy import ndimage
 
-from resus.reslice import Reslice, ResliceSettings, reslice_volume
-from resus.volume_grid import VolumeGrid
+from resus.reconstruction.grid import VolumeGrid
+from resus.reslicing.reslice import Reslice, ResliceSettings, reslice_volume
 
 SPACING = 0.2e-3
 

@@ -17,7 +17,7 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from resus.acquisition.rtde_robot import RTDERobot, RTDERobotConfig
+from resus.acquisition.backends.rtde import RTDERobot, RTDERobotConfig
 from sim.rtde.launch import launch
 
 

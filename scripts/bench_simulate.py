@@ -14,7 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from resus.simulate import LinearSweepParameters, resolve_scene, simulate_sweep
+from resus.acquisition.simulation import LinearSweepParameters, resolve_scene, simulate_sweep
 
 
 def main() -> None:

@@ -8,5 +8,5 @@ import sys
 
 def resus(*args: object, timeout: float = 300) -> subprocess.CompletedProcess:
     """Run `resus ARGS...` and return its exit code, stdout and stderr."""
-    command = [sys.executable, "-c", "from resus.cli import main; main()", *map(str, args)]
+    command = [sys.executable, "-c", "from resus.cli.app import main; main()", *map(str, args)]
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout)

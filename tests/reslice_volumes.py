@@ -6,7 +6,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
-from resus.volume_grid import VolumeGrid
+from resus.reconstruction.grid import VolumeGrid
 
 
 def grid_for(

@@ -18,7 +18,7 @@ import numpy as np
 import rtde_receive
 
 from resus.acquisition.patterns import linear_sweep
-from resus.simulate import phantom_spec, resolve_scene
+from resus.acquisition.simulation import phantom_spec, resolve_scene
 from sim.phantom import Phantom
 from sim.transforms import pose_from_ur
 
@@ -69,7 +69,7 @@ class Watched:
 
 def scan_and_watch(host: str, tmp_path: Path, *args: str) -> Watched:
     """Run `resus scan --robot HOST ARGS`, sampling the controller until it exits."""
-    command = [sys.executable, "-c", "from resus.cli import main; main()", "scan"]
+    command = [sys.executable, "-c", "from resus.cli.app import main; main()", "scan"]
     command += ["--robot", host, *map(str, args)]
     receive = rtde_receive.RTDEReceiveInterface(host)
     times, poses, speeds = [], [], []

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from resus.sweep import Sweep
+from resus.sweep.model import Sweep
 from sim.transforms import make_pose
 from sim.ultrasound.probe import LinearProbe
 

@@ -27,7 +27,7 @@ from resus.acquisition.robot import Robot, RobotFault
 from resus.acquisition.safety import SafetyLimits, SafetyViolation
 from resus.acquisition.trajectory import Trajectory
 from resus.errors import ResusError
-from resus.sweep_io import SweepWriter
+from resus.sweep.io import SweepWriter
 from sim.transforms import interpolate_poses
 
 

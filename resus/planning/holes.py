@@ -20,8 +20,8 @@ from resus.acquisition.trajectory import Trajectory
 from resus.planning import hole_kernels
 from resus.planning.checks import CheckResult, place_at
 from resus.planning.sampling import FrameSamples
-from resus.reconstruct import ReconstructionSettings
-from resus.volume_grid import VolumeGrid, aabb_grid, frame_corner_pixels, frame_points_world
+from resus.reconstruction.compounding import ReconstructionSettings
+from resus.reconstruction.grid import VolumeGrid, aabb_grid, frame_corner_pixels, frame_points_world
 from sim.transforms import invert_pose
 from sim.ultrasound.probe import LinearProbe
 

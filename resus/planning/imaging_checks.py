@@ -13,7 +13,7 @@ from resus.acquisition.safety import SafetyLimits
 from resus.acquisition.trajectory import Trajectory
 from resus.planning.checks import CheckResult, place_at
 from resus.planning.sampling import FrameSamples, PathSamples
-from resus.volume_grid import frame_corner_pixels, frame_points_world
+from resus.reconstruction.grid import frame_corner_pixels, frame_points_world
 from sim.ultrasound.probe import LinearProbe
 
 MIN_CONTACT_FORCE = 1.0

@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from resus.acquisition.simulated import SimulatedProbeConfig
+from resus.acquisition.backends.simulated import SimulatedProbeConfig
+from resus.acquisition.simulation import simulate_sweep
 from resus.acquisition.trajectory import Trajectory
 from resus.planning.holes import imaging_grid, swept_volume
 from resus.planning.sampling import PathSamples
-from resus.reconstruct import ReconstructionSettings, reconstruct
-from resus.simulate import simulate_sweep
-from resus.sweep_io import read_sweep
+from resus.reconstruction.compounding import ReconstructionSettings, reconstruct
+from resus.sweep.io import read_sweep
 from sim.robot.scene_config import SceneConfig
 from sim.ultrasound.probe import LinearProbe
 

@@ -41,7 +41,7 @@ def check_label_names(names: Sequence[str], path: Path) -> None:
 
 def load_sweep_frames(paths: Sequence[Path]) -> list[LabelledImages]:
     """One labelled set per sweep file (or per sweep file in a directory)."""
-    from resus.sweep_io import read_sweep
+    from resus.sweep.io import read_sweep
 
     sets = []
     for path in expand_paths(paths, "--sweeps"):
@@ -61,7 +61,7 @@ def load_sweep_frames(paths: Sequence[Path]) -> list[LabelledImages]:
 
 def load_reslice_sets(paths: Sequence[Path]) -> list[LabelledImages]:
     """One labelled set per reslice dataset file (or per file in a directory)."""
-    from resus.reslice_dataset import ResliceDataset
+    from resus.reslicing.dataset import ResliceDataset
 
     sets = []
     for path in expand_paths(paths, "--reslices"):

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import rerun as rr
 
-from resus.volume_io import LABEL_COLOURS
+from resus.reconstruction.io import LABEL_COLOURS
 
 WORLD = "world"
 ROBOT = "world/robot"

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import rerun as rr
 
-from resus.sweep import pixels_to_world
+from resus.sweep.model import pixels_to_world
 from resus.visualize.entities import label_colours
 
 QUAD_TEXCOORDS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])

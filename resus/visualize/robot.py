@@ -14,10 +14,10 @@ from functools import cache
 import numpy as np
 import rerun as rr
 from scipy.spatial.transform import Rotation
+from sim.assets import assets_dir
 
 from resus.visualize.entities import ROBOT
 from resus.visualize.transforms import pose_columns
-from sim.assets import assets_dir
 from sim.robot.kinematics import frame_chain
 
 BODY_NAMES = (

@@ -14,7 +14,7 @@ import numpy as np
 import rerun as rr
 from tqdm import tqdm
 
-from resus.sweep import DEFAULT_LABEL_NAMES, Sweep
+from resus.sweep.model import DEFAULT_LABEL_NAMES, Sweep
 from resus.visualize import entities as at
 from resus.visualize.quads import textured_quad
 from resus.visualize.robot import log_robot_shapes, send_robot_poses

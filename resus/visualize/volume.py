@@ -15,13 +15,13 @@ import numpy as np
 import rerun as rr
 
 from resus.errors import ResusError
-from resus.reslice import Reslice
-from resus.reslice_sheet import evenly_spaced
+from resus.reconstruction.grid import VolumeGrid
+from resus.reconstruction.io import intensity_to_uint8
+from resus.reslicing.reslice import Reslice
+from resus.reslicing.sheet import evenly_spaced
 from resus.visualize import entities as at
 from resus.visualize.quads import textured_quad
 from resus.visualize.transforms import quaternions_xyzw
-from resus.volume_grid import VolumeGrid
-from resus.volume_io import intensity_to_uint8
 
 AXIS_NAMES = "ijk"
 ORTHOGONAL_TOLERANCE = 1e-6

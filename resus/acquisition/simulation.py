@@ -1,0 +1,99 @@
+"""Simulated acquisition end to end: scene, robot, probe, trajectory -> a Sweep file."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from sim.assets import assets_dir
+
+from resus.acquisition.backends.simulated import (
+    SimulatedProbe,
+    SimulatedProbeConfig,
+    SimulatedRobot,
+)
+from resus.acquisition.patterns import linear_sweep
+from resus.acquisition.scanner import Scanner, ScannerSettings, ScanResult
+from resus.acquisition.trajectory import Trajectory
+from resus.errors import ResusError
+from sim.phantom import Phantom, PhantomSpec, load_phantom, make_subject
+from sim.robot.scene_config import SceneConfig, load_scene_config
+
+SUBJECT_ID = re.compile(r"^(?P<phantom>[^/]+)/(?P<subject>nominal|\d+)$")
+
+
+def resolve_scene(scene: str | Path, phantom: str | None, subject: int | None) -> SceneConfig:
+    """A scene by name (`assets/scenes/NAME.yaml`) or path, with phantom and subject set."""
+    path = Path(scene)
+    if not path.suffix:
+        path = assets_dir() / "scenes" / f"{scene}.yaml"
+    try:
+        config = load_scene_config(path)
+        changes = {"subject": subject} if subject is not None else {}
+        if phantom is not None:
+            changes["phantom"] = phantom
+        return dataclasses.replace(config, **changes)
+    except ValueError as error:
+        raise ResusError(str(error)) from None
+
+
+def phantom_spec(scene: SceneConfig, seed: int | None = None) -> PhantomSpec:
+    """The scene's phantom, with its seed replaced if given, then its subject's variant."""
+    try:
+        spec = load_phantom(scene.phantom)
+        if seed is not None:
+            spec = dataclasses.replace(spec, seed=seed)
+        return spec if scene.subject is None else make_subject(spec, scene.subject)
+    except ValueError as error:
+        raise ResusError(f"phantom {scene.phantom!r}: {error}") from None
+
+
+@dataclass(frozen=True)
+class LinearSweepParameters:
+    """The built-in `linear` trajectory, in the phantom frame (see `linear_sweep`)."""
+
+    start: tuple[float, float] = (0.0, -0.04)
+    direction: tuple[float, float] = (0.0, 1.0)
+    length: float = 0.08
+    speed: float = 0.01
+    contact_force: float | None = 4.0
+    frame_rate: float = 30.0
+    tilt_deg: float = 0.0
+
+
+def simulate_sweep(
+    out: str | Path,
+    scene: SceneConfig,
+    trajectory: Trajectory | LinearSweepParameters,
+    *,
+    seed: int | None = None,
+    probe: SimulatedProbeConfig | None = None,
+    progress: bool = True,
+) -> ScanResult:
+    """Scan the scene's phantom with the simulated UR3e and write a labelled Sweep to `out`."""
+    phantom = Phantom(phantom_spec(scene, seed))
+    if isinstance(trajectory, LinearSweepParameters):
+        trajectory = linear_sweep(phantom, scene.phantom_to_base, **dataclasses.asdict(trajectory))
+    robot = SimulatedRobot(scene)
+    probe_config = probe or SimulatedProbeConfig(frame_rate=trajectory.frame_rate)
+    probe_source = SimulatedProbe(robot, probe_config, phantom)
+    scanner = Scanner(robot, probe_source, settings=ScannerSettings(progress=progress))
+    return scanner.run(trajectory, out, source="sim", subject=subject_id(scene))
+
+
+def subject_id(scene: SceneConfig) -> str:
+    """The subject a simulated Sweep records: "PHANTOM/K", or "PHANTOM/nominal"."""
+    variant = "nominal" if scene.subject is None else str(scene.subject)
+    return f"{scene.phantom}/{variant}"
+
+
+def parse_subject_id(subject: str) -> tuple[str | None, int | None]:
+    """Phantom name and subject index of a `subject_id` ("default/3" -> ("default", 3);
+    "default/nominal" -> ("default", None)), or (None, None) for any other subject text."""
+    match = SUBJECT_ID.match(subject)
+    if match is None:
+        return None, None
+    index = match["subject"]
+    return match["phantom"], None if index == "nominal" else int(index)

@@ -1,0 +1,116 @@
+"""`resus experiment phantom|subjects`: the paper's Tables I and II, in simulation."""
+
+from __future__ import annotations
+
+import shlex
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from resus.errors import ResusError
+
+REGIME_HELP = "Comma list of us, imagenet, aug, resus (imagenet needs --weights)."
+
+
+def parse_subject_count(text: str) -> list[int]:
+    """'4' -> subjects 0-3; '0-5' or '0,2,5' -> those subjects (see `simulate`)."""
+    from resus.cli.simulate import parse_subjects
+
+    if text.strip().isdigit():
+        count = int(text)
+        if count < 2:
+            raise ResusError(f"--subjects: leave-one-subject-out needs at least 2, got {text!r}")
+        return list(range(count))
+    return parse_subjects(text)
+
+
+def parse_regimes(text: str) -> list[str]:
+    """'us,aug,resus' -> regime names, each checked."""
+    from resus.segmentation.loso import REGIMES
+
+    regimes = [part.strip() for part in text.split(",") if part.strip()]
+    unknown = [r for r in regimes if r not in REGIMES]
+    if not regimes or unknown:
+        raise ResusError(f"--regimes: expected a comma list of {', '.join(REGIMES)}, got {text!r}")
+    return list(dict.fromkeys(regimes))
+
+
+def _options(out: Path, data: Path | None, seed: int, device: str, jobs: int):
+    from resus.experiments.tables import RunOptions
+
+    if out.exists() and not out.is_dir():
+        raise ResusError("--out: is a file, expected a folder", out)
+    if jobs < 1:
+        raise ResusError(f"--jobs must be at least 1, got {jobs}")
+    command = shlex.join(["resus", *sys.argv[1:]]) if sys.argv else "resus experiment"
+    return RunOptions(out, data or out / "data", seed, device, jobs, command)
+
+
+def register(app: typer.Typer) -> None:
+    """Add `resus experiment phantom` and `resus experiment subjects`."""
+    group = typer.Typer(
+        help="The paper's tables in simulation: report.md, results.json, figures.",
+        no_args_is_help=True,
+    )
+    app.add_typer(group, name="experiment")
+
+    @group.command("phantom")
+    def phantom_command(
+        out: Annotated[Path, typer.Option(help="Report folder (report.md, results.json, PNGs).")],
+        preset: Annotated[str, typer.Option(help="quick (2-core CPU) or paper (GPU).")] = "quick",
+        data: Annotated[
+            Path | None, typer.Option(help="Scratch folder for sweeps and volumes [OUT/data].")
+        ] = None,
+        seed: Annotated[int, typer.Option(help="First training seed.")] = 0,
+        device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
+        jobs: Annotated[int, typer.Option(help="Processes preparing data.")] = 2,
+    ) -> None:
+        """Table I: train on phantom scan A (frames vs frames + reslices), test on scan B."""
+        from resus.experiments.tables import get_experiment_preset, run_phantom_experiment
+
+        settings = get_experiment_preset(preset)
+        results = run_phantom_experiment(settings, _options(out, data, seed, device, jobs))
+        for trained_on, row in results["iou"].items():
+            cells = ", ".join(f"{test} {iou['mean']:.3f}" for test, iou in row.items())
+            typer.echo(f"trained on {trained_on}: tested on {cells}")
+        typer.echo(f"wrote {out / 'report.md'}")
+
+    @group.command("subjects")
+    def subjects_command(
+        out: Annotated[Path, typer.Option(help="Report folder (report.md, results.json, PNGs).")],
+        preset: Annotated[str, typer.Option(help="quick (2-core CPU) or paper (GPU).")] = "quick",
+        subjects: Annotated[
+            str | None,
+            typer.Option(help="K (subjects 0..K-1), or e.g. 0-5 or 0,2,5 [preset's]."),
+        ] = None,
+        regimes: Annotated[str, typer.Option(help=REGIME_HELP)] = "us,imagenet,aug,resus",
+        weights: Annotated[
+            Path | None, typer.Option(help="Local torchvision ResNet state dict (imagenet).")
+        ] = None,
+        data: Annotated[
+            Path | None, typer.Option(help="Scratch folder for sweeps and volumes [OUT/data].")
+        ] = None,
+        seed: Annotated[int, typer.Option(help="Training seed.")] = 0,
+        device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
+        jobs: Annotated[int, typer.Option(help="Processes preparing data.")] = 2,
+    ) -> None:
+        """Table II: leave-one-subject-out over simulated subjects, per regime, with t-tests."""
+        from resus.experiments.tables import get_experiment_preset, run_subjects_experiment
+
+        settings = get_experiment_preset(preset)
+        chosen = None if subjects is None else parse_subject_count(subjects)
+        results = run_subjects_experiment(
+            settings,
+            _options(out, data, seed, device, jobs),
+            chosen,
+            parse_regimes(regimes),
+            weights,
+        )
+        for regime, entry in results["loso"]["regimes"].items():
+            if entry["status"] == "run":
+                typer.echo(f"{regime}: mean IoU {entry['mean_over_subjects']['mean']:.3f}")
+            else:
+                typer.echo(f"{regime}: not run ({entry['reason']})")
+        typer.echo(f"wrote {out / 'report.md'}")

@@ -1,0 +1,135 @@
+"""`resus simulate`: scan a simulated phantom with the simulated UR3e, write Sweeps."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from resus.errors import ResusError
+
+
+def parse_subjects(text: str) -> list[int]:
+    """'3', '0-7' or '0,2,5' -> subject indices."""
+    try:
+        subjects: list[int] = []
+        for part in text.split(","):
+            low, _, high = part.partition("-")
+            subjects += range(int(low), int(high or low) + 1)
+    except ValueError:
+        raise ResusError(f"--subjects: expected e.g. 3, 0-7 or 0,2,5, got {text!r}") from None
+    if not subjects or min(subjects) < 0:
+        raise ResusError(f"--subjects: expected non-negative subject numbers, got {text!r}")
+    return sorted(set(subjects))
+
+
+def parse_pair(text: str, option: str) -> tuple[float, float]:
+    """'x,y' -> (x, y)."""
+    try:
+        x, y = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ResusError(f"{option}: expected two numbers 'x,y', got {text!r}") from None
+    return x, y
+
+
+def _simulate_one(job: dict) -> tuple[str, int]:
+    """One subject's sweep (top level so worker processes can run it)."""
+    from resus.acquisition.simulation import resolve_scene, simulate_sweep
+    from resus.acquisition.trajectory import Trajectory
+
+    scene = resolve_scene(job["scene"], job["phantom"], job["subject"])
+    trajectory = job["trajectory"]
+    if isinstance(trajectory, str):
+        trajectory = Trajectory.from_yaml(trajectory)
+    result = simulate_sweep(
+        job["out"], scene, trajectory, seed=job["seed"], progress=job["progress"]
+    )
+    return str(result.path), result.frames
+
+
+def simulate(
+    out: Annotated[Path, typer.Option(help="Sweep file (.h5), or a folder with --subjects.")],
+    scene: Annotated[
+        str, typer.Option(help="Scene name (assets/scenes) or YAML path.")
+    ] = "default",
+    phantom: Annotated[str | None, typer.Option(help="Phantom spec name or YAML path.")] = None,
+    subject: Annotated[int | None, typer.Option(help="Subject variant of the phantom.")] = None,
+    subjects: Annotated[
+        str | None, typer.Option(help="Several subjects, e.g. 0-7: one sweep each, both cores.")
+    ] = None,
+    trajectory: Annotated[
+        str, typer.Option(help="'linear' (built in) or a trajectory YAML file.")
+    ] = "linear",
+    start: Annotated[str, typer.Option(help="Linear: start x,y on the skin (m, phantom).")] = (
+        "0,-0.04"
+    ),
+    direction: Annotated[str, typer.Option(help="Linear: direction x,y (phantom frame).")] = "0,1",
+    length: Annotated[float, typer.Option(help="Linear: sweep length (m).")] = 0.08,
+    speed: Annotated[float, typer.Option(help="Linear: probe speed (m/s).")] = 0.01,
+    frame_rate: Annotated[float, typer.Option(help="Linear: frames per second.")] = 30.0,
+    force: Annotated[
+        float, typer.Option(help="Linear: contact force (N); 0 for position control.")
+    ] = 4.0,
+    tilt: Annotated[float, typer.Option(help="Linear: tilt about the array axis (deg).")] = 0.0,
+    seed: Annotated[int | None, typer.Option(help="Phantom seed (anatomy and speckle).")] = None,
+    preview: Annotated[Path | None, typer.Option(help="Also save a contact sheet PNG.")] = None,
+    jobs: Annotated[int, typer.Option(help="Worker processes for --subjects.")] = 2,
+) -> None:
+    """Scan a simulated phantom with the simulated UR3e and write Sweeps with labels."""
+    from resus.acquisition.simulation import LinearSweepParameters
+
+    if trajectory == "linear":
+        plan: object = LinearSweepParameters(
+            start=parse_pair(start, "--start"),
+            direction=parse_pair(direction, "--direction"),
+            length=length,
+            speed=speed,
+            contact_force=force if force > 0 else None,
+            frame_rate=frame_rate,
+            tilt_deg=tilt,
+        )
+    elif Path(trajectory).is_file():
+        plan = trajectory
+    else:
+        raise ResusError("--trajectory: neither 'linear' nor an existing file", trajectory)
+    base = {"scene": scene, "phantom": phantom, "trajectory": plan, "seed": seed}
+    if subjects is None:
+        if not out.parent.is_dir():
+            raise ResusError("output folder does not exist", out.parent)
+        _simulate_one({**base, "subject": subject, "out": out, "progress": True})
+        outputs = [out]
+    else:
+        outputs = _simulate_many(base, parse_subjects(subjects), out, jobs)
+    for path in outputs:
+        typer.echo(f"wrote {path}")
+    if preview is not None:
+        from resus.sweep.io import SweepReader
+        from resus.sweep.preview import save_contact_sheet
+
+        with SweepReader(outputs[0]) as sweep:
+            save_contact_sheet(sweep, preview)
+        typer.echo(f"wrote {preview}")
+
+
+def _simulate_many(base: dict, subjects: list[int], folder: Path, jobs: int) -> list[Path]:
+    """One sweep per subject into `folder`, `jobs` processes at a time."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from tqdm import tqdm
+
+    folder.mkdir(parents=True, exist_ok=True)
+    work = [
+        {**base, "subject": k, "out": folder / f"subject_{k:02d}.h5", "progress": False}
+        for k in subjects
+    ]
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=max(1, jobs), mp_context=context) as pool:
+        done = tqdm(pool.map(_simulate_one, work), total=len(work), unit="sweep", desc="subjects")
+        return [Path(path) for path, _ in done]
+
+
+def register(app: typer.Typer) -> None:
+    """Add `resus simulate`."""
+    app.command()(simulate)

@@ -1,0 +1,277 @@
+"""Experiment data: simulated scans, each reconstructed and resliced, ready for training.
+
+One scan = one simulated linear sweep of a phantom subject (`sweep.h5`), its SDW volume and
+label volume (`volume.nrrd`, `labels.nrrd`) and the reslices of that volume (`reslices.h5`),
+all in one folder. Scans are prepared in worker processes (spawn), one per core by default.
+
+Every stage is cached: a folder's `scan.json` records the settings each stage ran with, and a
+stage whose files exist and whose recorded settings equal the requested ones is skipped. The
+record is written only after a stage finishes, so a crashed or interrupted stage runs again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from resus.acquisition.simulation import LinearSweepParameters
+from resus.errors import ResusError
+from resus.reconstruction.compounding import ReconstructionSettings
+from resus.reslicing.reslice import ResliceSettings
+
+GRIDS = ("ransac", "aabb")
+RECORD = "scan.json"
+
+
+@dataclass(frozen=True)
+class ScanSettings:
+    """How every scan of an experiment is simulated, reconstructed and resliced."""
+
+    scene: str = "default"
+    """Scene name (assets/scenes) or YAML path; its phantom is scanned."""
+    cols: int = 256
+    """Probe image width (pixels)."""
+    rows: int = 256
+    """Probe image height (pixels)."""
+    sweep: LinearSweepParameters = field(default_factory=LinearSweepParameters)
+    """The default linear sweep (a scan may replace it)."""
+    grid: str = "ransac"
+    """Volume grid: "ransac" (the paper's parallelepiped) or "aabb" (axis-aligned box)."""
+    spacing: float = 0.5e-3
+    """Voxel spacing (m)."""
+    reconstruction: ReconstructionSettings = field(default_factory=ReconstructionSettings)
+    reslice: ResliceSettings = field(default_factory=ResliceSettings)
+
+    def __post_init__(self) -> None:
+        if self.grid not in GRIDS:
+            raise ResusError(f"grid must be one of {', '.join(GRIDS)}, got {self.grid!r}")
+        if not self.spacing > 0:
+            raise ResusError(f"voxel spacing must be positive, got {self.spacing}")
+        if self.cols < 2 or self.rows < 2:
+            raise ResusError(f"probe image must be at least 2 x 2, got {self.cols} x {self.rows}")
+
+    def to_dict(self) -> dict:
+        """JSON-able form (tuples become lists)."""
+        return json.loads(json.dumps(dataclasses.asdict(self)))
+
+
+@dataclass(frozen=True)
+class Scan:
+    """One scan to prepare: a phantom subject (None: the nominal phantom) and its sweep."""
+
+    name: str
+    """Folder name under the data folder."""
+    subject: int | None
+    sweep: LinearSweepParameters | None = None
+    """None: the settings' default sweep."""
+
+
+@dataclass(frozen=True)
+class SubjectData:
+    """Files of one prepared scan, and the subject id its frames and reslices carry."""
+
+    subject: str
+    """Subject id as written in the sweep (e.g. "default/3"), used by LOSO splits."""
+    sweep: Path
+    volume: Path
+    labels: Path
+    reslices: Path
+
+
+def prepare_subjects(
+    folder: str | Path,
+    subjects: Sequence[int],
+    settings: ScanSettings | None = None,
+    *,
+    jobs: int = 2,
+    progress: bool = True,
+) -> list[SubjectData]:
+    """Prepare one scan per phantom subject in `folder/subject_KK/` (see `prepare_scans`)."""
+    scans = [Scan(f"subject_{k:02d}", k) for k in subjects]
+    return prepare_scans(folder, scans, settings, jobs=jobs, progress=progress)
+
+
+def prepare_scans(
+    folder: str | Path,
+    scans: Sequence[Scan],
+    settings: ScanSettings | None = None,
+    *,
+    jobs: int = 2,
+    progress: bool = True,
+) -> list[SubjectData]:
+    """Simulate, reconstruct and reslice every scan (cached), `jobs` processes at a time."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from tqdm import tqdm
+
+    settings = settings or ScanSettings()
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise ResusError("data folder is a file", folder)
+    if len({scan.name for scan in scans}) != len(scans):
+        raise ResusError("scan names must be unique")
+    folder.mkdir(parents=True, exist_ok=True)
+    work = [
+        (folder / scan.name, scan, settings, max(1, jobs))
+        for scan in scans
+        if stale_stages(folder / scan.name, scan, settings)
+    ]
+    bar = {"total": len(work), "desc": "scans", "unit": "scan", "disable": not progress}
+    if jobs <= 1 or len(work) <= 1:
+        for job in tqdm(work, **bar):
+            prepare_scan(*job[:3])
+    else:
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=min(jobs, len(work)), mp_context=context) as pool:
+            list(tqdm(pool.map(_prepare_in_worker, work), **bar))
+    return [_with_subject(_files(folder / scan.name)) for scan in scans]
+
+
+def _prepare_in_worker(job: tuple[Path, Scan, ScanSettings, int]) -> None:
+    """`prepare_scan` in a worker process, its numba threads a fair share of the cores."""
+    import numba
+
+    out, scan, settings, jobs = job
+    numba.set_num_threads(max(1, min(numba.config.NUMBA_NUM_THREADS, available_cores() // jobs)))
+    prepare_scan(out, scan, settings)
+
+
+def available_cores() -> int:
+    """CPU cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:
+    """What each stage of `scan` depends on, as JSON values (the cache key of each stage)."""
+    stages = {
+        "simulate": {"scene": settings.scene, "subject": scan.subject,
+                     "sweep": dataclasses.asdict(scan.sweep or settings.sweep),
+                     "cols": settings.cols, "rows": settings.rows},
+        "reconstruct": {"grid": settings.grid, "spacing": settings.spacing,
+                        "settings": dataclasses.asdict(settings.reconstruction)},
+        "reslice": dataclasses.asdict(settings.reslice),
+    }  # fmt: skip
+    return json.loads(json.dumps(stages))
+
+
+def stale_stages(out: Path, scan: Scan, settings: ScanSettings) -> list[str]:
+    """Stages of `scan` in folder `out` that must (re)run: the first one whose files are
+    missing or whose recorded settings differ, and every stage after it."""
+    record = _read_record(Path(out) / RECORD)
+    data = _files(Path(out))
+    outputs = {
+        "simulate": [data.sweep],
+        "reconstruct": [data.volume, data.labels],
+        "reslice": [data.reslices],
+    }
+    stages = stage_settings(scan, settings)
+    for index, (stage, wanted) in enumerate(stages.items()):
+        if record.get(stage) != wanted or not all(p.is_file() for p in outputs[stage]):
+            return list(stages)[index:]
+    return []
+
+
+def prepare_scan(out: Path, scan: Scan, settings: ScanSettings) -> SubjectData:
+    """One scan's sweep, volumes and reslices in `out`, each stage skipped when cached."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    data = _files(out)
+    steps = {"simulate": _simulate, "reconstruct": _reconstruct, "reslice": _reslice}
+    wanted = stage_settings(scan, settings)
+    for stage in stale_stages(out, scan, settings):
+        record = _read_record(out / RECORD)
+        record.pop(stage, None)
+        _write_record(out / RECORD, record)
+        steps[stage](data, scan, settings)
+        _write_record(out / RECORD, {**record, stage: wanted[stage]})
+    return _with_subject(data)
+
+
+def _files(out: Path) -> SubjectData:
+    return SubjectData("", out / "sweep.h5", out / "volume.nrrd", out / "labels.nrrd",
+                       out / "reslices.h5")  # fmt: skip
+
+
+def _with_subject(data: SubjectData) -> SubjectData:
+    """`data` with the subject id its sweep file carries."""
+    from resus.sweep.io import SweepReader
+
+    with SweepReader(data.sweep) as reader:
+        return dataclasses.replace(data, subject=reader.subject)
+
+
+def _read_record(path: Path) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _write_record(path: Path, record: dict) -> None:
+    path.write_text(json.dumps(record, indent=2) + "\n")
+
+
+def _simulate(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
+    from resus.acquisition.backends.simulated import SimulatedProbeConfig
+    from resus.acquisition.simulation import resolve_scene, simulate_sweep
+    from sim.ultrasound.probe import LinearProbe
+
+    sweep = scan.sweep or settings.sweep
+    probe = SimulatedProbeConfig(
+        probe=LinearProbe(cols=settings.cols, rows=settings.rows), frame_rate=sweep.frame_rate
+    )
+    scene = resolve_scene(settings.scene, None, scan.subject)
+    simulate_sweep(data.sweep, scene, sweep, probe=probe, progress=False)
+
+
+def _reconstruct(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
+    import numpy as np
+
+    from resus.reconstruction.compounding import reconstruct
+    from resus.reconstruction.grid import aabb_grid
+    from resus.reconstruction.io import intensity_to_uint8, write_volume
+    from resus.reconstruction.ransac_grid import ransac_grid
+    from resus.sweep.io import read_sweep
+
+    sweep = read_sweep(data.sweep)
+    if sweep.labels is None or len(sweep.frames) < 2:
+        raise ResusError("an experiment sweep needs at least 2 labelled frames", data.sweep)
+    poses = np.asarray(sweep.probe_to_base)
+    shape = tuple(sweep.frames.shape[1:])
+    if settings.grid == "aabb":
+        grid = aabb_grid(
+            settings.spacing, poses=poses, image_to_probe=sweep.image_to_probe, frame_shape=shape
+        )
+    else:
+        grid = ransac_grid(poses, sweep.image_to_probe, shape, spacing=settings.spacing)
+    names = list(sweep.label_names)
+    result = reconstruct(
+        sweep.frames, poses, sweep.image_to_probe, grid, settings.reconstruction,
+        labels=sweep.labels, n_classes=len(names),
+    )  # fmt: skip
+    write_volume(data.volume, intensity_to_uint8(result.volume), grid)
+    write_volume(data.labels, result.labels, grid, names)
+
+
+def _reslice(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
+    from resus.reconstruction.io import read_volume
+    from resus.reslicing.dataset import DEFAULT_LABEL_NAMES, ResliceWriter
+    from resus.reslicing.reslice import reslice_volume
+    from resus.sweep.io import SweepReader
+
+    volume, grid, _ = read_volume(data.volume)
+    labels, _, names = read_volume(data.labels)
+    with SweepReader(data.sweep) as reader:
+        subject = reader.subject
+    with ResliceWriter(
+        data.reslices, settings.reslice, str(data.volume), subject, names or DEFAULT_LABEL_NAMES
+    ) as writer:
+        for reslice in reslice_volume(volume, labels, grid, settings.reslice):
+            writer.append(reslice)

@@ -1,0 +1,326 @@
+"""The end-to-end demo: every stage of the pipeline on built-in defaults, into one folder.
+
+Simulate sweeps of a few phantom subjects with the MuJoCo UR3e, reconstruct them, reslice the
+volumes, train the quick U-Net with and without RESUS reslices on all but one subject, segment
+the held-out subject, map its vessels from the predictions, propose a needle site, and write a
+report, the meshes, the volumes for 3D Slicer and a rerun recording of it all.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from resus.acquisition.simulation import LinearSweepParameters
+from resus.errors import ResusError
+from resus.experiments.data import ScanSettings, SubjectData, prepare_subjects
+from resus.experiments.demo_report import render_report
+from resus.sweep.model import Sweep
+from sim.robot.scene_config import SceneConfig
+
+if TYPE_CHECKING:  # torch is imported only when training starts
+    from resus.segmentation.loso import RegimeRun
+
+DEMO_REGIMES = ("us", "resus")
+"""Frames only, against frames plus reslices: the comparison RESUS is about."""
+LABEL_SOURCES = ("ground_truth", *DEMO_REGIMES)
+"""The held-out sweep's vessels are mapped from its true labels and from each model's."""
+PICTURE_FRAMES = 3
+"""Held-out frames shown with each model's prediction in predictions.png."""
+
+
+@dataclass(frozen=True)
+class DemoSettings:
+    """Sizes of the demo; the defaults finish in a few minutes on 2 CPU cores."""
+
+    subjects: tuple[int, ...] = (0, 1, 2)
+    """Phantom subjects scanned; the last is held out for testing and mapping."""
+    image_size: int = 128
+    """Probe image width and height (pixels)."""
+    sweep_length: float = 0.05
+    """Length of each linear sweep (m)."""
+    max_epochs: int = 8
+    """Epochs of the quick U-Net per regime."""
+    seed: int = 0
+    """Seed for training (the phantoms are seeded by their subject numbers)."""
+
+    def __post_init__(self) -> None:
+        if len(set(self.subjects)) != len(self.subjects) or len(self.subjects) < 2:
+            raise ResusError(
+                f"--subjects must be two or more distinct numbers, got {self.subjects}"
+            )
+        if min(self.subjects) < 0:
+            raise ResusError(f"--subjects must not be negative, got {self.subjects}")
+        if self.image_size < 32:
+            raise ResusError(f"--image-size must be at least 32, got {self.image_size}")
+        if not self.sweep_length > 0:
+            raise ResusError(f"--sweep-length must be positive, got {self.sweep_length}")
+        if self.max_epochs < 1:
+            raise ResusError(f"--epochs must be at least 1, got {self.max_epochs}")
+
+    def scan_settings(self) -> ScanSettings:
+        sweep = LinearSweepParameters(start=(0.0, -self.sweep_length / 2), length=self.sweep_length)
+        return ScanSettings(cols=self.image_size, rows=self.image_size, sweep=sweep)
+
+
+@dataclass(frozen=True)
+class DemoResult:
+    """Where the demo put things, and its headline numbers."""
+
+    folder: Path
+    report: Path
+    recording: Path
+    summary: dict
+
+
+class _Stopwatch:
+    """Wall time of each stage, in the order they ran."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+        self._last = time.perf_counter()
+
+    def lap(self, stage: str) -> None:
+        now = time.perf_counter()
+        self.seconds[stage] = round(now - self._last, 1)
+        self._last = now
+
+
+def run_demo(
+    folder: str | Path, settings: DemoSettings | None = None, progress: bool = True
+) -> DemoResult:
+    """Run the whole pipeline into `folder` (created; prepared scans already there are reused)."""
+    from resus.experiments.tables import set_torch_threads
+
+    settings = settings or DemoSettings()
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise ResusError("output is a file, not a folder", folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    clock = _Stopwatch()
+    data = prepare_subjects(
+        folder / "data", settings.subjects, settings.scan_settings(), progress=progress
+    )
+    clock.lap("simulate, reconstruct, reslice")
+    set_torch_threads()
+    runs = _train_regimes(folder / "models", data, settings, progress)
+    clock.lap("train")
+    test = _HeldOut.load(data[-1])
+    predictions = {regime: _segment(run, test.sweep) for regime, run in runs.items()}
+    clock.lap("segment")
+    vessels = _map_vessels(folder / "vessels", test, predictions)
+    clock.lap("vessel maps")
+    pictures = _pictures(folder, test, predictions)
+    recording = _record(folder / "demo.rrd", test, predictions, runs)
+    clock.lap("pictures and rerun recording")
+    summary = _summary(folder, settings, data, runs, vessels, pictures, clock.seconds)
+    (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    report = folder / "report.md"
+    report.write_text(render_report(summary))
+    return DemoResult(folder, report, recording, summary)
+
+
+@dataclass(frozen=True)
+class _HeldOut:
+    """The held-out subject's files, its sweep and the scene it was scanned in."""
+
+    files: SubjectData
+    sweep: Sweep
+    scene: SceneConfig
+
+    @classmethod
+    def load(cls, files: SubjectData) -> _HeldOut:
+        from resus.acquisition.simulation import parse_subject_id, resolve_scene
+        from resus.sweep.io import read_sweep
+
+        sweep = read_sweep(files.sweep)
+        phantom, subject = parse_subject_id(sweep.subject)
+        return cls(files, sweep, resolve_scene("default", phantom, subject))
+
+
+def _train_regimes(
+    folder: Path, data: list[SubjectData], settings: DemoSettings, progress: bool
+) -> dict[str, RegimeRun]:
+    """Quick U-Nets for frames only and frames plus reslices, tested on the last subject."""
+    from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
+    from resus.segmentation.loso import make_split, run_regime
+    from resus.segmentation.presets import QUICK
+
+    preset = dataclasses.replace(QUICK, max_epochs=settings.max_epochs)
+    frames = load_sweep_frames([d.sweep for d in data])
+    reslices = load_reslice_sets([d.reslices for d in data])
+    split = make_split(frames, reslices, data[-1].subject, preset.validation_fraction)
+    runs = {}
+    for regime in DEMO_REGIMES:
+        out = folder / regime
+        out.mkdir(parents=True, exist_ok=True)
+        runs[regime] = run_regime(
+            split, regime, preset, seed=settings.seed, out_dir=out, progress=progress
+        )
+    return runs
+
+
+def _segment(run: RegimeRun, sweep: Sweep) -> np.ndarray:
+    """A trained model's labels for every frame of the held-out sweep."""
+    from resus.segmentation.inference import predict
+
+    image_size = run.training.config["model"]["image_size"]
+    return predict(run.training.model, sweep.frames, image_size=image_size)
+
+
+def _map_vessels(folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray]) -> dict:
+    """Vessel maps of the held-out sweep from its true labels and from each model's."""
+    from resus.vessels.pipeline import map_vessels
+
+    labels = {"ground_truth": test.sweep.labels, **predictions}
+    sweep_name = str(test.files.sweep)
+    return {
+        source: map_vessels(
+            test.sweep,
+            labels[source],
+            test.scene,
+            folder / source,
+            {"sweep": sweep_name, "labels": source},
+        )
+        for source in LABEL_SOURCES
+    }
+
+
+def _pictures(folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray]) -> list[str]:
+    """The held-out volume's slices, its reslices and predictions on a few of its frames."""
+    from resus.experiments.report import save_prediction_figure
+    from resus.experiments.tables import Example, example_index
+    from resus.reconstruction.io import read_volume, save_slices_png
+    from resus.reslicing.dataset import ResliceDataset
+    from resus.reslicing.sheet import save_contact_sheet
+
+    volume, grid, _ = read_volume(test.files.volume)
+    labels, _, _ = read_volume(test.files.labels)
+    save_slices_png(folder / "volume.png", volume, grid, labels, title="held-out volume")
+    with ResliceDataset(test.files.reslices) as reslices:
+        chosen = np.linspace(0, len(reslices) - 1, min(12, len(reslices))).round().astype(int)
+        save_contact_sheet(
+            folder / "reslices.png", [reslices[int(i)] for i in chosen], title="held-out reslices"
+        )
+    truth = test.sweep.labels
+    best = example_index(truth)
+    indices = sorted({best, len(truth) // 4, 3 * len(truth) // 4})[:PICTURE_FRAMES]
+    examples = [
+        Example(
+            f"frame {index}",
+            test.sweep.frames[index],
+            truth[index],
+            {regime: labels[index] for regime, labels in predictions.items()},
+        )
+        for index in indices
+    ]
+    save_prediction_figure(folder / "predictions.png", examples, "held-out subject")
+    return ["volume.png", "reslices.png", "predictions.png"]
+
+
+def _record(
+    path: Path, test: _HeldOut, predictions: dict[str, np.ndarray], runs: dict[str, RegimeRun]
+) -> Path:
+    """One rerun recording: the held-out scan with the RESUS model's predictions, its volume,
+    reslices, phantom, vessel maps and the RESUS model's training curves."""
+    from resus.acquisition.simulation import phantom_spec
+    from resus.reconstruction.io import read_volume
+    from resus.reslicing.dataset import ResliceDataset
+    from resus.visualize import (
+        log_phantom,
+        log_reslices,
+        log_sweep,
+        log_training_curves,
+        log_vessel_map,
+        log_volume,
+        make_blueprint,
+        open_recording,
+    )
+    from sim.phantom import Phantom
+
+    volume, grid, _ = read_volume(test.files.volume)
+    labels, _, _ = read_volume(test.files.labels)
+    middle = test.sweep.probe_to_base[len(test.sweep) // 2, :3, 3]
+    blueprint = make_blueprint(reslices=True, training=True, look_at=middle)
+    with open_recording("resus-demo", save=path, blueprint=blueprint) as session:
+        log_sweep(session.stream, test.sweep, predictions=predictions["resus"])
+        log_phantom(session.stream, test.scene, Phantom(phantom_spec(test.scene)))
+        log_volume(session.stream, volume, grid, labels)
+        with ResliceDataset(test.files.reslices) as reslices:
+            log_reslices(session.stream, reslices, test.sweep.label_names, limit=100)
+        for source in LABEL_SOURCES:
+            log_vessel_map(session.stream, path.parent / "vessels" / source, source)
+        history = [record.to_dict() for record in runs["resus"].training.history]
+        log_training_curves(session.stream, history)
+    return path
+
+
+def _summary(
+    folder: Path,
+    settings: DemoSettings,
+    data: list[SubjectData],
+    runs: dict[str, RegimeRun],
+    vessels: dict[str, dict],
+    pictures: list[str],
+    seconds: dict[str, float],
+) -> dict:
+    """Everything the report shows, as written to summary.json (paths relative to `folder`)."""
+    test = data[-1]
+    return {
+        "settings": dataclasses.asdict(settings),
+        "subjects": [d.subject for d in data],
+        "test_subject": test.subject,
+        "frames": {
+            "test": _frame_count(test.sweep),
+            "train": sum(_frame_count(d.sweep) for d in data[:-1]),
+        },
+        "iou": {regime: run.test_iou.to_dict() for regime, run in runs.items()},
+        "best_epoch": {regime: run.training.best_epoch for regime, run in runs.items()},
+        "vessels": {
+            source: {
+                "scores": metrics["scores"],
+                "needle": metrics["needle"],
+                "needle_truth": metrics.get("needle_truth"),
+                "anatomy": metrics["anatomy"],
+            }
+            for source, metrics in vessels.items()
+        },
+        "files": {
+            "pictures": pictures,
+            "curves": [f"models/{regime}/curves.png" for regime in runs],
+            "checkpoints": [f"models/{regime}/checkpoint.pt" for regime in runs],
+            "vessel_pictures": [
+                f"vessels/{source}/{name}"
+                for source in vessels
+                for name in ("vessel_map.png", "needle.png")
+            ],
+            "meshes": [
+                f"vessels/{source}/{name}"
+                for source, metrics in vessels.items()
+                for name in metrics["files"]
+                if name.endswith((".stl", ".ply", ".glb"))
+            ],
+            "volumes": [
+                str(path.relative_to(folder)) for d in data for path in (d.volume, d.labels)
+            ]
+            + [f"vessels/{source}/vessel_labels.nrrd" for source in vessels],
+            "test_volume": str(test.volume.relative_to(folder)),
+            "sweeps": [str(d.sweep.relative_to(folder)) for d in data],
+            "recording": "demo.rrd",
+        },
+        "seconds": seconds,
+        "total_seconds": round(sum(seconds.values()), 1),
+    }
+
+
+def _frame_count(sweep_path: Path) -> int:
+    from resus.sweep.io import SweepReader
+
+    with SweepReader(sweep_path) as reader:
+        return len(reader)

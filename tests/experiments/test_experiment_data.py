@@ -1,0 +1,56 @@
+"""Experiment data preparation: one scan's sweep, volumes and reslices, and its stage cache."""
+
+import dataclasses
+
+import h5py
+
+from resus.acquisition.simulation import LinearSweepParameters
+from resus.experiments.data import ScanSettings, prepare_subjects
+from resus.reslicing.reslice import ResliceSettings
+from resus.sweep.io import SweepReader
+
+SETTINGS = ScanSettings(
+    cols=48,
+    rows=48,
+    sweep=LinearSweepParameters(length=0.015, speed=0.01, frame_rate=8.0),
+    spacing=1.0e-3,
+    reslice=ResliceSettings(angles_deg=(0.0, 20.0), step=6, size=32),
+)
+
+
+def modified(data) -> dict[str, int]:
+    return {name: getattr(data, name).stat().st_mtime_ns for name in ("sweep", "volume", "labels",
+                                                                      "reslices")}  # fmt: skip
+
+
+def test_prepare_subjects_writes_every_file_and_caches_each_stage(tmp_path):
+    (first,) = prepare_subjects(tmp_path, [2], SETTINGS, jobs=1, progress=False)
+    assert first.subject == "default/2" and first.sweep.parent == tmp_path / "subject_02"
+    with SweepReader(first.sweep) as sweep:
+        assert sweep.frame_shape == (48, 48) and len(sweep) >= 10
+    with h5py.File(first.reslices) as reslices:
+        assert reslices.attrs["subject"] == "default/2"
+        assert reslices["images"].shape[1:] == (32, 32) and len(reslices["images"]) > 0
+    before = modified(first)
+
+    (again,) = prepare_subjects(tmp_path, [2], SETTINGS, jobs=1, progress=False)
+    assert again == first and modified(again) == before  # nothing simulated or rewritten
+
+    other_reslicing = dataclasses.replace(SETTINGS, reslice=ResliceSettings(step=8, size=32))
+    (resliced,) = prepare_subjects(tmp_path, [2], other_reslicing, jobs=1, progress=False)
+    after = modified(resliced)
+    assert {k: after[k] == before[k] for k in after} == {
+        "sweep": True, "volume": True, "labels": True, "reslices": False
+    }  # fmt: skip
+    with h5py.File(resliced.reslices) as reslices:
+        assert reslices.attrs["step"] == 8
+
+
+def test_interrupted_stage_runs_again(tmp_path):
+    (first,) = prepare_subjects(tmp_path, [0], SETTINGS, jobs=1, progress=False)
+    before = modified(first)
+    first.volume.unlink()  # as if reconstruction had crashed before writing
+    (again,) = prepare_subjects(tmp_path, [0], SETTINGS, jobs=1, progress=False)
+    after = modified(again)
+    assert after["sweep"] == before["sweep"]
+    assert after["volume"] != before["volume"] and after["reslices"] != before["reslices"]

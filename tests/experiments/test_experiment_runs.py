@@ -1,0 +1,134 @@
+"""`resus experiment`: tiny end-to-end runs of both tables, their reports, and the CLI's errors."""
+
+import dataclasses
+import json
+import re
+import subprocess
+import sys
+
+import pytest
+import torch
+
+from resus.acquisition.simulation import LinearSweepParameters
+from resus.experiments.data import ScanSettings
+from resus.experiments.tables import (
+    ExperimentPreset,
+    RunOptions,
+    run_phantom_experiment,
+    run_subjects_experiment,
+)
+from resus.reslicing.reslice import ResliceSettings
+from resus.segmentation.presets import QUICK, ModelConfig
+
+torch.set_num_threads(1)  # one per pytest-xdist worker: more oversubscribes the 2 cores
+
+TINY_SWEEP = LinearSweepParameters(length=0.02, speed=0.01, frame_rate=8.0)
+TINY = ExperimentPreset(
+    name="tiny",
+    training=dataclasses.replace(
+        QUICK,
+        model=ModelConfig(
+            encoder_name="resnet18", encoder_depth=3, decoder_channels=(16, 8, 4), image_size=48
+        ),
+        max_epochs=1,
+    ),
+    scans=ScanSettings(
+        cols=48,
+        rows=48,
+        sweep=TINY_SWEEP,
+        spacing=1.0e-3,
+        reslice=ResliceSettings(angles_deg=(-20.0, 0.0, 20.0), step=6, size=48),
+    ),
+    subjects=(0, 1, 2),
+    phantom_scans=(TINY_SWEEP, dataclasses.replace(TINY_SWEEP, start=(0.003, -0.035))),
+    repeats=2,
+)
+
+
+def numbers(line: str) -> list[float]:
+    return [float(x) for x in re.findall(r"\d+\.\d{3}", line)]
+
+
+@pytest.fixture(scope="module")
+def subjects_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("subjects")
+    options = RunOptions(out / "report", out / "data", seed=3, device="cpu", jobs=2, progress=False)
+    results = run_subjects_experiment(TINY, options, regimes=("us", "imagenet", "resus"))
+    return options, results
+
+
+def test_subjects_report_table_equals_results_json(subjects_run):
+    options, results = subjects_run
+    saved = json.loads((options.out / "results.json").read_text())
+    assert saved == json.loads(json.dumps(results))
+    regimes = saved["loso"]["regimes"]
+    assert regimes["imagenet"]["status"] == "not run"
+    report = (options.out / "report.md").read_text()
+    table = report.split("| held-out subject | us | resus |")[1].split("\n\n")[0].splitlines()
+    subjects = saved["loso"]["subjects"]
+    assert subjects == ["default/0", "default/1", "default/2"]
+    for subject in subjects:
+        row = next(line for line in table if line.startswith(f"| {subject} |"))
+        expected = [round(regimes[r]["iou"][subject]["mean"], 3) for r in ("us", "resus")]
+        assert numbers(row) == expected
+    average = next(line for line in table if line.startswith("| **average**"))
+    assert numbers(average) == [
+        round(regimes[r]["mean_over_subjects"]["mean"], 3) for r in ("us", "resus")
+    ]
+    assert "| p vs resus |" in report and "imagenet: not run" in report
+    assert "subjects_differ_enough" in saved["generalisation"]
+    for name in ("predictions.png", "curves_us.png", "curves_resus.png"):
+        assert (options.out / name).stat().st_size > 1000
+
+
+def test_no_test_subject_reslice_reaches_training(subjects_run):
+    """Each fold trains on the other subjects' frames (less validation) and reslices only."""
+    _, results = subjects_run
+    counts = results["images_per_subject"]
+    fraction = TINY.training.validation_fraction
+    for subject in counts:
+        others = [c for s, c in counts.items() if s != subject]
+        frames = sum(c["frames"] - min(max(1, round(fraction * c["frames"])), c["frames"] - 1)
+                     for c in others)  # fmt: skip
+        reslices = sum(c["reslices"] for c in others)
+        assert results["training_images"]["us"][subject] == frames
+        assert results["training_images"]["resus"][subject] == frames + reslices
+
+
+def test_phantom_report_table_equals_results_json(tmp_path):
+    options = RunOptions(tmp_path / "report", tmp_path / "data", device="cpu", progress=False)
+    results = run_phantom_experiment(TINY, options)
+    saved = json.loads((options.out / "results.json").read_text())
+    assert saved["seeds"] == [0, 1]
+    report = (options.out / "report.md").read_text()
+    for trained_on in ("frames", "frames + reslices"):
+        row = results["iou"][trained_on]
+        line = next(x for x in report.splitlines() if x.startswith(f"| {trained_on} | "))
+        expected = []
+        for test in ("frames", "frames + reslices"):
+            runs = [run["mean"] for run in row[test]["runs"]]
+            assert len(runs) == 2 and row[test]["mean"] == pytest.approx(sum(runs) / 2)
+            expected += [round(row[test]["mean"], 3), round(row[test]["mean_std"], 3)]
+        assert numbers(line) == expected
+    assert saved["scans"]["B"]["reslices"] > 0
+    assert (options.out / "predictions.png").is_file()
+
+
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        (["subjects", "--preset", "huge"], "--preset: unknown preset 'huge'"),
+        (["subjects", "--subjects", "1"], "--subjects: leave-one-subject-out needs at least 2"),
+        (["subjects", "--subjects", "a-b"], "--subjects: expected e.g. 3, 0-7 or 0,2,5"),
+        (["subjects", "--regimes", "us,magic"], "--regimes: expected a comma list"),
+        (["phantom", "--jobs", "0"], "--jobs must be at least 1"),
+    ],
+)
+def test_cli_bad_input_is_one_line(tmp_path, arguments, message):
+    command = [sys.executable, "-c", "from resus.cli.app import main; main()", "experiment"]
+    done = subprocess.run(
+        [*command, *arguments, "--out", str(tmp_path / "out")], capture_output=True, text=True
+    )
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and message in done.stderr
+    assert not (tmp_path / "out").exists()

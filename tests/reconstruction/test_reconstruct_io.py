@@ -1,0 +1,65 @@
+"""Volume files: NRRD and MetaImage round trips in millimetres, PNG slices."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from resus.errors import ResusError
+from resus.reconstruction.grid import VolumeGrid
+from resus.reconstruction.io import intensity_to_uint8, read_volume, save_slices_png, write_volume
+
+SKEWED = VolumeGrid(
+    origin=(0.012, -0.034, 0.056),
+    axes=[[0.4e-3, 0.05e-3, 0.0], [0.0, 0.3e-3, 0.02e-3], [0.03e-3, 0.0, 0.5e-3]],
+    shape=(7, 5, 4),
+)
+
+
+@pytest.mark.parametrize("suffix", [".nrrd", ".mha"])
+def test_round_trip_keeps_values_and_geometry(tmp_path: Path, suffix: str) -> None:
+    volume = np.random.default_rng(0).integers(0, 256, size=SKEWED.shape, dtype=np.uint8)
+    path = write_volume(
+        tmp_path / f"v{suffix}", volume, SKEWED, label_names=["background", "artery", "vein"]
+    )
+    array, grid, names = read_volume(path)
+    np.testing.assert_array_equal(array, volume)
+    np.testing.assert_allclose(grid.origin, SKEWED.origin, atol=1e-12)
+    np.testing.assert_allclose(grid.axes, SKEWED.axes, atol=1e-12)
+    assert names == ["background", "artery", "vein"]
+
+
+def test_nrrd_header_is_lps_millimetres(tmp_path: Path) -> None:
+    import nrrd
+
+    write_volume(tmp_path / "v.nrrd", np.zeros(SKEWED.shape, np.float32), SKEWED)
+    header = nrrd.read_header(str(tmp_path / "v.nrrd"))
+    assert header["space"] == "left-posterior-superior"
+    np.testing.assert_allclose(header["space origin"], [12.0, -34.0, 56.0])
+    np.testing.assert_allclose(header["space directions"], SKEWED.axes * 1e3)
+    np.testing.assert_array_equal(header["sizes"], SKEWED.shape)
+
+
+def test_slices_png_is_written(tmp_path: Path) -> None:
+    volume = np.random.default_rng(1).random(SKEWED.shape).astype(np.float32)
+    labels = (volume > 0.7).astype(np.uint8)
+    path = save_slices_png(tmp_path / "s.png", volume, SKEWED, labels)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bad_paths_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(ResusError, match="must end in"):
+        write_volume(tmp_path / "v.vtk", np.zeros(SKEWED.shape), SKEWED)
+    with pytest.raises(ResusError, match="does not match grid"):
+        write_volume(tmp_path / "v.nrrd", np.zeros((1, 2, 3)), SKEWED)
+    with pytest.raises(ResusError, match="no such volume"):
+        read_volume(tmp_path / "missing.mha")
+    (tmp_path / "junk.nrrd").write_text("not a volume")
+    with pytest.raises(ResusError, match=r"junk\.nrrd"):
+        read_volume(tmp_path / "junk.nrrd")
+
+
+def test_intensities_round_and_clip_to_uint8() -> None:
+    np.testing.assert_array_equal(
+        intensity_to_uint8(np.array([-3.0, 0.4, 0.6, 254.7, 300.0])), [0, 0, 1, 255, 255]
+    )

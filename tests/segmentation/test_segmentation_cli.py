@@ -1,0 +1,108 @@
+"""`resus train` from sweep and reslice files, and the loaders' errors."""
+
+import json
+
+import numpy as np
+import pytest
+import torch
+import typer
+from typer.testing import CliRunner
+
+from resus.cli.train import register
+from resus.errors import ResusError
+from resus.reslicing.dataset import ResliceWriter
+from resus.reslicing.reslice import Reslice, ResliceSettings
+from resus.segmentation.checkpoint import load_checkpoint
+from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
+from resus.segmentation.synthetic import synthetic_subject
+from resus.sweep.io import write_sweep
+from resus.sweep.model import Sweep
+
+torch.set_num_threads(1)  # one per pytest-xdist worker: more oversubscribes the 2 cores
+
+
+def write_synthetic_sweep(path, subject: str, seed: int, labelled: bool = True) -> None:
+    images = synthetic_subject(subject, 12, size=64, seed=seed)
+    count = len(images)
+    write_sweep(
+        path,
+        Sweep(
+            frames=images.images,
+            probe_to_base=np.repeat(np.eye(4)[None], count, axis=0),
+            timestamps=np.arange(count) / 30.0,
+            image_to_probe=np.diag([1e-4, 1e-4, 1.0, 1.0]),
+            labels=images.labels if labelled else None,
+            subject=subject,
+        ),
+    )
+
+
+def write_synthetic_reslices(path, subject: str, seed: int) -> None:
+    images = synthetic_subject(subject, 6, size=64, seed=seed, oblique=True)
+    with ResliceWriter(path, ResliceSettings(size=64), "volume.nrrd", subject=subject) as writer:
+        for image, label in zip(images.images, images.labels, strict=True):
+            writer.append(Reslice(image, label, (10.0, 0.0), 0, np.eye(4)))
+
+
+@pytest.fixture
+def files(tmp_path):
+    (tmp_path / "sweeps").mkdir()
+    for i, subject in enumerate(("s1", "s2", "s3")):
+        write_synthetic_sweep(tmp_path / "sweeps" / f"{subject}.h5", subject, i)
+        write_synthetic_reslices(tmp_path / f"{subject}_reslices.h5", subject, 10 + i)
+    return tmp_path
+
+
+def cli() -> typer.Typer:
+    app = typer.Typer()
+    register(app)
+    app.command("noop")(lambda: None)  # a second command keeps `train` a named sub-command
+    return app
+
+
+def test_train_command_holds_out_a_subject(files) -> None:
+    out = files / "run"
+    arguments = ["train", "--sweeps", str(files / "sweeps"), "--out", str(out), "--regime"]
+    arguments += ["resus", "--test-subject", "s2", "--seed", "3"]
+    for subject in ("s1", "s2", "s3"):
+        arguments += ["--reslices", str(files / f"{subject}_reslices.h5")]
+    result = CliRunner().invoke(cli(), arguments, catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert "test subject s2: IoU artery" in result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["status"] == "run" and metrics["train_subjects"] == ["s1", "s3"]
+    assert metrics["train_images"] == 2 * (12 - 2) + 2 * 6  # s2's reslices left out
+    assert set(metrics["test_iou"]) == {"artery", "vein", "mean"}
+    _, config = load_checkpoint(out / "checkpoint.pt")
+    assert config["regime"] == "resus" and config["seed"] == 3
+    assert (out / "curves.png").is_file()
+
+
+def test_train_command_reports_imagenet_not_run(files) -> None:
+    out = files / "imagenet"
+    arguments = ["train", "--sweeps", str(files / "sweeps" / "s1.h5"), "--out", str(out)]
+    result = CliRunner().invoke(cli(), [*arguments, "--regime", "imagenet"])
+    assert result.exit_code == 0 and "regime imagenet not run" in result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["status"] == "not run" and "--weights" in metrics["reason"]
+    assert not (out / "checkpoint.pt").exists()
+
+
+def test_loaders_read_files_and_name_bad_ones(files) -> None:
+    frames = load_sweep_frames([files / "sweeps"])
+    assert [s.subject for s in frames] == ["s1", "s2", "s3"] and frames[0].images.shape == (
+        12,
+        64,
+        64,
+    )
+    reslices = load_reslice_sets([files / "s1_reslices.h5"])
+    assert reslices[0].subject == "s1" and len(reslices[0]) == 6
+    unlabelled = files / "unlabelled.h5"
+    write_synthetic_sweep(unlabelled, "s4", 4, labelled=False)
+    with pytest.raises(ResusError, match=r"unlabelled\.h5: sweep has no labels"):
+        load_sweep_frames([unlabelled])
+    with pytest.raises(ResusError, match=r"--sweeps: no such file"):
+        load_sweep_frames([files / "nowhere.h5"])
+    (files / "empty").mkdir()
+    with pytest.raises(ResusError, match=r"--reslices: no \.h5 files"):
+        load_reslice_sets([files / "empty"])

@@ -1,0 +1,85 @@
+"""Phantom.sample on known points: depth, materials and layers, vessel distance and normal."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sim.phantom import ARTERY, VESSEL_SEARCH_RADIUS, Phantom, TissueSample
+
+
+def test_block_depth_material_and_air(default_phantom: Phantom) -> None:
+    points = np.array([[0.0, 0.0, -0.001], [0.0, 0.0, 0.01], [0.06, 0.0, -0.01], [0, 0, -0.059]])
+    sample = default_phantom.sample(points)
+    np.testing.assert_allclose(sample.depth, [0.001, -0.01, 0.01, 0.059])
+    np.testing.assert_array_equal(sample.material, [0, -1, -1, 0])  # gel, air, beside, gel
+    np.testing.assert_array_equal(sample.label, 0)
+    assert [m.name for m in default_phantom.materials] == ["gel", "blood"]
+    assert np.isinf(sample.vessel_distance[0]) and sample.vessel_index[0] == -1
+    np.testing.assert_array_equal(sample.vessel_normal[0], 0.0)
+    np.testing.assert_allclose(default_phantom.skin_height([0.0, 0.06], [0.0, 0.0]), [0.0, np.nan])
+    np.testing.assert_allclose(default_phantom.skin_normal([0.01], [0.02]), [[0.0, 0.0, 1.0]])
+
+
+def test_vessel_distance_sign_and_normal_around_the_cfa(default_phantom: Phantom) -> None:
+    spec = default_phantom.spec
+    cfa = [v.name for v in spec.vessels].index("CFA")
+    nodes = default_phantom.centrelines()["CFA"]
+    node = nodes[len(nodes) // 3]
+    tangent = nodes[len(nodes) // 3 + 1] - node
+    up = np.cross(np.cross(tangent, [0.0, 0.0, 1.0]), tangent)
+    up /= np.linalg.norm(up)  # perpendicular to the vessel, towards the skin
+    radius = default_phantom.centreline_radii()["CFA"][len(nodes) // 3]
+    offsets = np.array([-0.5 * radius, 0.0, radius - 1e-3, radius + 1e-3, radius + 0.004])
+    sample = default_phantom.sample(node + offsets[:, None] * up)
+    np.testing.assert_allclose(sample.vessel_distance, np.abs(offsets) - radius, atol=5e-6)
+    np.testing.assert_array_equal(sample.vessel_index, cfa)
+    np.testing.assert_array_equal(sample.label, [ARTERY, ARTERY, ARTERY, 0, 0])
+    np.testing.assert_array_equal(sample.material, [1, 1, 1, 0, 0])  # blood inside, gel outside
+    on_axis = 1  # where the normal's direction is arbitrary
+    for i, expected in enumerate([-up, None, up, up, up]):
+        if i != on_axis:
+            assert sample.vessel_normal[i] @ expected > 0.999
+    beyond = default_phantom.sample(node[None] + (radius + VESSEL_SEARCH_RADIUS + 1e-4) * up)
+    assert np.isinf(beyond.vessel_distance[0]) and beyond.vessel_index[0] == -1
+
+
+def test_leg_layers_follow_the_curved_skin(leg_phantom: Phantom) -> None:
+    radius = leg_phantom.spec.body.radius
+    names = [m.name for m in leg_phantom.materials]
+    assert names == ["skin", "fat", "muscle", "blood", "cortical bone"]
+    angle = 0.6  # on the side of the thigh, where depth is along the tilted normal
+    normal = leg_phantom.skin_normal(radius * np.sin(angle), 0.0)
+    np.testing.assert_allclose(normal, [np.sin(angle), 0.0, np.cos(angle)])
+    skin_point = np.array(
+        [radius * np.sin(angle), 0.0, leg_phantom.skin_height(radius * np.sin(angle), 0)]
+    )
+    depths = np.array([0.001, 0.004, 0.02, -0.003])
+    sample = leg_phantom.sample(skin_point - depths[:, None] * normal)
+    np.testing.assert_allclose(sample.depth, depths, atol=1e-12)
+    np.testing.assert_array_equal(sample.material, [0, 1, 2, -1])  # skin, fat, muscle, air
+    assert np.isnan(leg_phantom.skin_height(radius * 1.01, 0.0))
+
+
+def test_leg_femur_is_bone(leg_phantom: Phantom) -> None:
+    femur = leg_phantom.spec.bones[0]
+    centre = femur.control_points[1]
+    points = centre + np.array(
+        [[0, 0, 0], [0, 0, femur.radii[1] - 5e-4], [0, 0, femur.radii[1] + 5e-4]]
+    )
+    sample = leg_phantom.sample(points)
+    np.testing.assert_array_equal(sample.material, [4, 4, 2])  # bone, bone, muscle
+    np.testing.assert_array_equal(sample.label, 0)
+
+
+def test_sample_reuses_buffers_and_matches_labels(default_phantom: Phantom) -> None:
+    rng = np.random.default_rng(0)
+    points = rng.uniform([-0.05, -0.08, -0.06], [0.05, 0.08, 0.005], (20_000, 3))
+    out = TissueSample.empty(len(points))
+    sample = default_phantom.sample(points, out=out)
+    assert sample is out
+    np.testing.assert_array_equal(sample.label, default_phantom.labels(points))
+    assert sample.label.dtype == np.uint8 and sample.material.dtype == np.int8
+    assert sample.vessel_index.dtype == np.int16 and sample.vessel_normal.shape == (20_000, 3)
+    with pytest.raises(ValueError, match="out holds"):
+        default_phantom.sample(points[:10], out=out)

@@ -1,0 +1,77 @@
+"""`resus vessels` end to end on a short simulated sweep, and its one-line errors."""
+
+import json
+from pathlib import Path
+
+import h5py
+import pytest
+from cli_runner import resus
+
+from resus.acquisition.backends.simulated import SimulatedProbeConfig
+from resus.acquisition.simulation import LinearSweepParameters, resolve_scene, simulate_sweep
+from sim.ultrasound.probe import LinearProbe
+
+
+@pytest.fixture(scope="module")
+def sweep_path(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("vessels_cli") / "sweep.h5"
+    simulate_sweep(
+        path,
+        resolve_scene("default", None, None),
+        LinearSweepParameters(start=(0.0, -0.05), length=0.04, speed=0.025),
+        probe=SimulatedProbeConfig(probe=LinearProbe(cols=96, rows=96, depth=0.04)),
+        progress=False,
+    )
+    return path
+
+
+def test_maps_a_sweep_and_writes_every_output(sweep_path: Path, tmp_path: Path) -> None:
+    out = tmp_path / "map"
+    done = resus("vessels", sweep_path, "--labels-from-sweep", "--out", out,
+                 "--target", "artery", "--spacing", "0.4e-3")  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    for name in ("artery.ply", "artery.stl", "vein.ply", "vein.stl", "vessel_map.glb",
+                 "vessel_labels.nrrd", "vessel_map.png", "needle.png", "vessels.json"):  # fmt: skip
+        assert (out / name).stat().st_size > 0, name
+    metrics = json.loads((out / "vessels.json").read_text())
+    for name in ("artery", "vein"):
+        assert metrics["scores"][name]["mean_surface_distance_mm"] < 0.5
+    needle = metrics["needle"]
+    assert needle["target"] == "artery" and needle["safe"], needle["reason"]
+    assert metrics["needle_truth"]["tip_in_target_lumen"]
+    assert metrics["needle_truth"]["clearance_from_other_mm"] > 2.5
+    assert "the more lateral trunk" in metrics["anatomy"]
+    assert "mean surface distance" in done.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--out", "{tmp}/o"], "exactly one of --model"),
+        (["--labels-from-sweep", "--model", "m.pt", "--out", "{tmp}/o"], "exactly one of"),
+        (["--labels-from-sweep", "--out", "{tmp}/o", "--target", "nerve"], "--target"),
+        (["--labels-from-sweep", "--out", "{tmp}/o", "--needle-angle", "0"], "--needle-angle"),
+        (["--labels-from-sweep", "--out", "{tmp}/o", "--spacing", "-1"], "--spacing"),
+        (["--model", "{tmp}/missing.pt", "--out", "{tmp}/o"], "checkpoint not found"),
+        (["--labels-from-sweep", "--out", "{tmp}/o", "--scene", "nowhere"], "nowhere"),
+    ],
+)
+def test_bad_input_is_one_line_and_non_zero(
+    sweep_path: Path, tmp_path: Path, args: list, message: str
+) -> None:
+    done = resus("vessels", sweep_path, *(a.format(tmp=tmp_path) for a in args))
+    assert done.returncode != 0
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], done.stderr
+
+
+def test_missing_sweep_and_unlabelled_sweep_are_named(sweep_path: Path, tmp_path: Path) -> None:
+    done = resus("vessels", tmp_path / "none.h5", "--labels-from-sweep", "--out", tmp_path)
+    assert done.returncode != 0 and "none.h5" in done.stderr and "no such" in done.stderr
+    unlabelled = tmp_path / "unlabelled.h5"
+    unlabelled.write_bytes(sweep_path.read_bytes())
+    with h5py.File(unlabelled, "a") as file:
+        del file["labels"]
+    done = resus("vessels", unlabelled, "--labels-from-sweep", "--out", tmp_path / "o")
+    assert done.returncode != 0 and len(done.stderr.strip().splitlines()) == 1
+    assert "has no labels" in done.stderr

@@ -1,0 +1,169 @@
+"""`resus view` end to end, and the live web viewer served on localhost only."""
+
+from __future__ import annotations
+
+import socket
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rerun as rr
+import typer
+from rerun_readback import Recording
+from sweep_samples import sample_sweep
+from typer.testing import CliRunner
+
+from resus.cli import view as view_command
+from resus.errors import ResusError
+from resus.reconstruction.grid import VolumeGrid
+from resus.reconstruction.io import write_volume
+from resus.reslicing.dataset import ResliceWriter
+from resus.reslicing.reslice import Reslice, ResliceSettings
+from resus.sweep.io import write_sweep
+from resus.visualize import open_recording
+
+N = 4
+
+
+@pytest.fixture(scope="module")
+def app() -> typer.Typer:
+    root = typer.Typer()
+    view_command.register(root)
+    root.command("noop")(lambda: None)  # a second command, so `view` is addressed by name
+    return root
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("view")
+    sweep = sample_sweep(N, rows=10, cols=12, seed=5)
+    write_sweep(folder / "sweep.h5", sweep)
+    grid = VolumeGrid(origin=[0.1, 0.2, 0.05], axes=np.diag([1e-3, 1e-3, 2e-3]), shape=(5, 6, 4))
+    rng = np.random.default_rng(0)
+    write_volume(folder / "volume.nrrd", rng.integers(0, 255, grid.shape).astype(np.uint8), grid)
+    write_volume(folder / "labels.nrrd", rng.integers(0, 3, grid.shape).astype(np.uint8), grid)
+    settings = ResliceSettings(size=8)
+    with ResliceWriter(folder / "reslices.h5", settings, "volume.nrrd") as writer:
+        for k in range(3):
+            plane = np.diag([1e-3, 1e-3, 1e-3, 1.0])
+            writer.append(
+                Reslice(
+                    rng.integers(0, 255, (8, 8), dtype=np.uint8),
+                    rng.integers(0, 3, (8, 8), dtype=np.uint8),
+                    (0.0, 10.0 * k),
+                    k,
+                    plane,
+                )
+            )
+    files = [("sweep", "h5"), ("volume", "nrrd"), ("labels", "nrrd"), ("reslices", "h5")]
+    return {name: folder / f"{name}.{suffix}" for name, suffix in files}
+
+
+def test_view_logs_sweep_volume_reslices_and_phantom(app, inputs, tmp_path):
+    out = tmp_path / "view.rrd"
+    arguments = [
+        "view",
+        str(inputs["sweep"]),
+        "--volume",
+        str(inputs["volume"]),
+        "--labels",
+        str(inputs["labels"]),
+        "--reslices",
+        str(inputs["reslices"]),
+        "--scene",
+        "default",
+        "--dense-volume",
+        "--rerun-save",
+        str(out),
+    ]
+    result = CliRunner().invoke(app, arguments)
+    assert result.exit_code == 0, result.output
+    assert "logged 3 of 3 reslices" in result.output
+    recording = Recording(out)
+    assert len(recording.temporal["/world/ultrasound/frame"]) == N
+    assert len(recording.temporal["/world/robot/wrist_3_link"]) == N
+    assert len(recording.temporal["/world/reslices/plane"]) == 3
+    expected = {"/world/volume/slices/i", "/world/volume/dense", "/world/phantom/artery"}
+    assert expected <= recording.entities
+    assert len(recording.blueprints) == 1
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--labels", "LABELS", "--rerun-save", "out.rrd"], "--labels needs --volume"),
+        ([], "nowhere to send the recording"),
+        (["--predictions", "SWEEP", "--rerun-save", "out.rrd"], "no labels to show"),
+        (["--rerun", "window"], "--rerun must be one of serve, spawn"),
+    ],
+)
+def test_view_refuses_bad_options(app, inputs, tmp_path, extra, message):
+    unlabelled = tmp_path / "unlabelled.h5"
+    write_sweep(unlabelled, sample_sweep(N, rows=10, cols=12, optional=False))
+    names = {"LABELS": str(inputs["labels"]), "SWEEP": str(unlabelled)}
+    extra = [names.get(arg, str(tmp_path / arg) if arg.endswith(".rrd") else arg) for arg in extra]
+    result = CliRunner().invoke(app, ["view", str(inputs["sweep"]), *extra])
+    assert isinstance(result.exception, ResusError), result.output
+    assert message in str(result.exception)
+
+
+def test_dense_view_of_a_sheared_grid_is_refused_before_recording(app, inputs, tmp_path):
+    sheared = VolumeGrid(
+        origin=[0.0, 0.0, 0.0], axes=[[1e-3, 0, 0], [5e-4, 1e-3, 0], [0, 0, 1e-3]], shape=(4, 4, 4)
+    )
+    write_volume(tmp_path / "sheared.nrrd", np.zeros((4, 4, 4), np.uint8), sheared)
+    out = tmp_path / "never.rrd"
+    arguments = [
+        "view",
+        str(inputs["sweep"]),
+        "--volume",
+        str(tmp_path / "sheared.nrrd"),
+        "--dense-volume",
+        "--rerun-save",
+        str(out),
+    ]
+    result = CliRunner().invoke(app, arguments)
+    assert isinstance(result.exception, ResusError)
+    assert "orthogonal" in str(result.exception)
+    assert not out.exists()
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def listening_addresses(port: int) -> set[str]:
+    """Local addresses (hex, as /proc/net/tcp writes them) listening on `port`."""
+    found = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            lines = Path(table).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            local, state = line.split()[1], line.split()[3]
+            address, hex_port = local.split(":")
+            if state == "0A" and int(hex_port, 16) == port:  # 0A: LISTEN
+                found.add(address)
+    return found
+
+
+def test_serve_hosts_web_viewer_and_grpc_on_localhost_only(tmp_path):
+    grpc_port, web_port = free_port(), free_port()
+    session = open_recording(
+        "test", live="serve", save=tmp_path / "live.rrd", grpc_port=grpc_port, web_port=web_port
+    )
+    try:
+        assert session.viewer_url.startswith(f"http://127.0.0.1:{web_port}/?url=rerun%2Bhttp")
+        with urllib.request.urlopen(session.viewer_url, timeout=10) as page:
+            assert page.status == 200 and b"<html" in page.read(2000).lower()
+        for port in (grpc_port, web_port):
+            assert listening_addresses(port) == {"0100007F"}  # 127.0.0.1 and nothing else
+        session.stream.log("probe", rr.Points3D([[0.0, 0.0, 0.0]]))
+    finally:
+        session.close()
+    assert session.server.process.returncode is not None
+    assert "/probe" in Recording(tmp_path / "live.rrd").entities
