@@ -2,10 +2,11 @@
 
 Two reconstructions on one axis-aligned grid around the labelled vessels
 (`resus.reconstruction.compounding`, squared-distance-weighted compounding with hole filling):
-the B-mode frames with the label images as class channels (intensity for pictures, the segmentation's class per voxel), and
-the vessel indicator (1 where a pixel is labelled artery or vein) as intensity, which gives
-each voxel the weighted share of vessel pixels around it. That share is smooth across the
-vessel wall, so marching cubes at 0.5 puts the surface between voxels, not on their faces.
+the B-mode frames with the label images as class channels (intensity for pictures, the
+segmentation's class per voxel), and the vessel indicator (1 where a pixel is labelled artery
+or vein) as intensity, which gives each voxel the weighted share of vessel pixels around it.
+That share is smooth across the vessel wall, so marching cubes at 0.5 puts the surface
+between voxels, not on their faces.
 
 The vessel mask (share > 0.5) is split into 6-connected parts; parts under
 `min_part_volume` are specks and dropped, the rest get their class by anatomy
