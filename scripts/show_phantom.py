@@ -16,12 +16,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 from tqdm import tqdm
 
+from sim.labels import label_colour_unit
 from sim.phantom import ARTERY, VEIN, Phantom, load_phantom, make_subject
 
 OUTPUT = Path(__file__).resolve().parents[1] / "docs" / "phantom_subjects.png"
 SUBJECTS = (0, 1, 2, 3)
 SECTION_Y = -0.030
-COLOURS = {ARTERY: "tab:red", VEIN: "tab:blue"}
 
 
 def cross_section(phantom: Phantom, y: float, pixel: float = 0.2e-3) -> tuple[np.ndarray, tuple]:
@@ -58,7 +58,9 @@ def main() -> None:
         top = axes[0, column]
         top.add_patch(plt.Rectangle((-sx / 2 * 1e3, -sy / 2 * 1e3), sx * 1e3, sy * 1e3, fill=False))
         for vessel, line in zip(variant.vessels, phantom.centrelines().values(), strict=True):
-            top.plot(line[:, 0] * 1e3, line[:, 1] * 1e3, color=COLOURS[vessel.label], lw=1.5)
+            top.plot(
+                line[:, 0] * 1e3, line[:, 1] * 1e3, color=label_colour_unit(vessel.label), lw=1.5
+            )
             top.annotate(vessel.name, line[-1, :2] * 1e3, fontsize=7, ha="center", va="bottom")
         top.axhline(SECTION_Y * 1e3, color="grey", ls=":", lw=0.8)
         top.set(title=title, xlabel="x (mm, lateral +)", ylabel="y (mm, distal +)", aspect="equal")

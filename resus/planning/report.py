@@ -11,11 +11,9 @@ from matplotlib.figure import Figure
 from resus.planning.coverage import station_bins
 from resus.planning.imaging_checks import frame_corners
 from resus.planning.planner import PlanAnalysis
-from sim.phantom import LABEL_NAMES
+from sim.labels import LABEL_NAMES, label_colour_unit
 from sim.robot import kinematics
 from sim.transforms import invert_pose
-
-CLASS_COLOURS = {1: "tab:red", 2: "tab:blue"}
 
 
 def checks_table(analysis: PlanAnalysis) -> str:
@@ -61,7 +59,7 @@ def _plot_top_view(analysis: PlanAnalysis, path: Path) -> None:
     axis.fill(*_footprint(body[:, :2]).T, color="0.9", label="phantom")
     for vessel in phantom.spec.vessels:
         nodes = phantom.centrelines()[vessel.name]
-        axis.plot(nodes[:, 0], nodes[:, 1], color=CLASS_COLOURS.get(vessel.label, "k"), linewidth=2)
+        axis.plot(nodes[:, 0], nodes[:, 1], color=label_colour_unit(vessel.label), linewidth=2)
         axis.annotate(vessel.name, nodes[-1, :2], fontsize=7)
     corners = to_phantom[None, :3, :3] @ frame_corners(
         analysis.frames, analysis.settings.probe
@@ -101,7 +99,7 @@ def _plot_coverage(analysis: PlanAnalysis, path: Path) -> None:
     axes = figure.subplots(2, 1, sharex=True)
     for c, label in enumerate(coverage.labels):
         shown = frames.imaging & coverage.seen[:, c]
-        axes[0].scatter(bins[shown], np.full(shown.sum(), c), s=4, color=CLASS_COLOURS.get(label))
+        axes[0].scatter(bins[shown], np.full(shown.sum(), c), s=4, color=label_colour_unit(label))
     axes[0].set_yticks(range(len(coverage.labels)), [LABEL_NAMES[k] for k in coverage.labels])
     axes[0].set_title("target vessels in view, by station along the sweep (1 mm bins)")
     pair = analysis.holes.pair_fraction

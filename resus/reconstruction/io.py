@@ -16,11 +16,13 @@ import numpy as np
 
 from resus.errors import ResusError
 from resus.reconstruction.grid import VolumeGrid
+from sim.labels import label_overlay
 
 MM = 1e3
 NRRD_SUFFIXES = (".nrrd", ".nhdr")
 METAIMAGE_SUFFIXES = (".mha", ".mhd")
-LABEL_COLOURS = np.array([[0, 0, 0], [230, 40, 40], [40, 90, 240], [40, 200, 80], [240, 200, 40]])
+LABEL_ALPHA = 0.45
+"""Opacity of the label overlay in slice pictures."""
 
 
 def _suffix(path: Path) -> str:
@@ -125,10 +127,7 @@ def save_slices_png(
 ) -> Path:
     """PNG of the three index-orthogonal slices through `centre` (default: the middle voxel),
     drawn to scale, with labels as coloured overlays when given."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     path = Path(path)
     if path.suffix.lower() != ".png":
@@ -136,7 +135,8 @@ def save_slices_png(
     centre = centre or tuple(n // 2 for n in grid.shape)
     spacing = grid.spacing * MM
     views = [(2, 0, 1), (1, 0, 2), (0, 1, 2)]  # (fixed axis, horizontal, vertical)
-    figure, panels = plt.subplots(1, 3, figsize=(15, 5.4))
+    figure = Figure(figsize=(15, 5.4))
+    panels = figure.subplots(1, 3)
     low, high = np.percentile(volume, [1, 99.5]) if volume.size else (0, 1)
     for panel, (fixed, across, down) in zip(panels, views, strict=True):
         index = [slice(None)] * 3
@@ -146,9 +146,7 @@ def save_slices_png(
         panel.imshow(image.T, cmap="gray", vmin=low, vmax=max(high, low + 1e-6), extent=extent)
         if labels is not None:
             label_slice = labels[tuple(index)].T
-            colours = LABEL_COLOURS[np.minimum(label_slice, len(LABEL_COLOURS) - 1)] / 255.0
-            overlay = np.concatenate([colours, 0.45 * (label_slice > 0)[..., None]], axis=-1)
-            panel.imshow(overlay, extent=extent)
+            panel.imshow(label_overlay(label_slice, LABEL_ALPHA), extent=extent)
         name = "ijk"
         panel.set_title(f"{name[fixed]} = {centre[fixed]}")
         panel.set_xlabel(f"{name[across]} (mm)")
@@ -157,5 +155,4 @@ def save_slices_png(
     figure.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(path, dpi=90)
-    plt.close(figure)
     return path

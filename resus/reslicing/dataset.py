@@ -28,9 +28,10 @@ import numpy as np
 
 from resus.errors import ResusError
 from resus.reslicing.reslice import Reslice, ResliceSettings
+from sim.labels import LABEL_NAMES
+from sim.labels import LABEL_NAMES as DEFAULT_LABEL_NAMES  # noqa: F401  (until callers move)
 
 SCHEMA = "resus.reslices/1"
-DEFAULT_LABEL_NAMES = ("background", "artery", "vein")
 FLUSH_EVERY = 64
 
 
@@ -43,7 +44,7 @@ class ResliceWriter:
         settings: ResliceSettings,
         source_volume: str,
         subject: str = "",
-        label_names: Iterable[str] = DEFAULT_LABEL_NAMES,
+        label_names: Iterable[str] = LABEL_NAMES,
     ) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)

@@ -23,7 +23,6 @@ import h5py
 import numpy as np
 
 from resus.sweep.model import (
-    DEFAULT_LABEL_NAMES,
     Sweep,
     SweepError,
     SweepFrame,
@@ -38,6 +37,7 @@ from resus.sweep.model import (
     check_uint8,
     now_iso,
 )
+from sim.labels import LABEL_NAMES
 
 SCHEMA = "resus.sweep/1"
 IMAGE_DATASETS = ("frames", "labels")
@@ -92,7 +92,7 @@ class SweepWriter:
         with_joints: bool = False,
         source: str = "sim",
         subject: str = "",
-        label_names: Sequence[str] = DEFAULT_LABEL_NAMES,
+        label_names: Sequence[str] = LABEL_NAMES,
         created: str | None = None,
     ) -> None:
         self.path = Path(path)

@@ -16,9 +16,10 @@ from typing import NamedTuple
 import numpy as np
 
 from resus.errors import ResusError
+from sim.labels import LABEL_NAMES
+from sim.labels import LABEL_NAMES as DEFAULT_LABEL_NAMES  # noqa: F401  (until callers move)
 from sim.transforms import is_rigid, rigidity_error
 
-DEFAULT_LABEL_NAMES: tuple[str, ...] = ("background", "artery", "vein")
 SOURCES: tuple[str, ...] = ("sim", "real", "plus")
 PER_FRAME = ("frames", "labels", "probe_to_base", "timestamps", "wrench", "joint_positions")
 
@@ -196,7 +197,7 @@ class Sweep:
     """(N, 6) float64 TCP force (N) and torque (N m)."""
     joint_positions: np.ndarray | None = None
     """(N, 6) float64 robot joint angles (rad)."""
-    label_names: tuple[str, ...] = DEFAULT_LABEL_NAMES
+    label_names: tuple[str, ...] = LABEL_NAMES
     source: str = "sim"
     """Where it came from: 'sim', 'real' or 'plus'."""
     subject: str = ""

@@ -17,10 +17,9 @@ training/...                        per-epoch curves (timeline "epoch")
 
 from __future__ import annotations
 
-import numpy as np
 import rerun as rr
 
-from resus.reconstruction.io import LABEL_COLOURS
+from sim.labels import label_palette
 
 WORLD = "world"
 ROBOT = "world/robot"
@@ -51,15 +50,9 @@ LABEL_OPACITY = 0.5
 """Opacity of 2D label images over their frame."""
 
 
-def label_colours(count: int) -> np.ndarray:
-    """(count, 3) uint8 colours of label values 0..count-1: background black, artery red,
-    vein blue (the colours of the volume pictures)."""
-    return LABEL_COLOURS[np.minimum(np.arange(count), len(LABEL_COLOURS) - 1)].astype(np.uint8)
-
-
 def annotation_context(label_names: tuple[str, ...] | list[str]) -> rr.AnnotationContext:
     """Class names and colours for `SegmentationImage`s; background is transparent."""
-    colours = label_colours(len(label_names))
+    colours = label_palette(len(label_names))
     return rr.AnnotationContext(
         [
             rr.AnnotationInfo(

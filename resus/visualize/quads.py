@@ -11,7 +11,7 @@ import numpy as np
 import rerun as rr
 
 from resus.sweep.model import pixels_to_world
-from resus.visualize.entities import label_colours
+from sim.labels import tint_labels
 
 QUAD_TEXCOORDS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 QUAD_TRIANGLES = np.array([[0, 1, 2], [0, 2, 3]], dtype=np.uint32)
@@ -34,13 +34,7 @@ def tinted_texture(image: np.ndarray, label: np.ndarray | None = None) -> np.nda
 
     rerun's mesh textures must be RGB(A), so grey levels are repeated over three channels.
     """
-    rgb = np.repeat(np.asarray(image, dtype=np.uint8)[..., None], 3, axis=-1)
-    if label is None or not np.any(label):
-        return rgb
-    label = np.asarray(label)
-    colours = label_colours(int(label.max()) + 1)
-    tinted = (1 - LABEL_TINT) * rgb + LABEL_TINT * colours[label]
-    return np.where((label > 0)[..., None], np.rint(tinted), rgb).astype(np.uint8)
+    return tint_labels(image, label, LABEL_TINT)
 
 
 def textured_quad(

@@ -6,8 +6,9 @@ import numpy as np
 import rerun as rr
 import trimesh
 
-from resus.visualize.entities import PHANTOM, label_colours
+from resus.visualize.entities import PHANTOM
 from resus.visualize.transforms import pose_transform
+from sim.labels import VESSEL_CLASSES, label_colour
 from sim.phantom import Phantom
 from sim.robot.scene_config import SceneConfig
 
@@ -15,7 +16,6 @@ MESH_RESOLUTION = 1.0e-3
 """Vessel surface resolution for display (m): coarser than the simulator's, light to log."""
 OUTLINE_ANGLE_DEG = 20.0
 """Body edges where the surface bends more than this are drawn as its outline."""
-VESSEL_LABELS = {"artery": 1, "vein": 2}
 
 
 def feature_edges(mesh: trimesh.Trimesh, angle_deg: float = OUTLINE_ANGLE_DEG) -> np.ndarray:
@@ -33,8 +33,7 @@ def log_phantom(stream: rr.RecordingStream, scene: SceneConfig, phantom: Phantom
         rr.LineStrips3D(feature_edges(body), colors=(200, 170, 140), radii=0.0005),
         static=True,
     )
-    colours = label_colours(max(VESSEL_LABELS.values()) + 1)
-    for name, value in VESSEL_LABELS.items():
+    for name, value in VESSEL_CLASSES.items():
         try:
             mesh = phantom.mesh(name, MESH_RESOLUTION)
         except ValueError:  # a phantom without this vessel class
@@ -45,7 +44,7 @@ def log_phantom(stream: rr.RecordingStream, scene: SceneConfig, phantom: Phantom
                 vertex_positions=mesh.vertices,
                 triangle_indices=mesh.faces,
                 vertex_normals=mesh.vertex_normals,
-                albedo_factor=colours[value],
+                albedo_factor=label_colour(value),
             ),
             static=True,
         )

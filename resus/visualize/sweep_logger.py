@@ -14,11 +14,12 @@ import numpy as np
 import rerun as rr
 from tqdm import tqdm
 
-from resus.sweep.model import DEFAULT_LABEL_NAMES, Sweep
+from resus.sweep.model import Sweep
 from resus.visualize import entities as at
 from resus.visualize.quads import textured_quad
 from resus.visualize.robot import log_robot_shapes, send_robot_poses
 from resus.visualize.transforms import pose_columns
+from sim.labels import LABEL_NAMES
 from sim.robot.kinematics import JOINT_NAMES
 
 PROBE_AXIS_LENGTH = 0.02
@@ -34,7 +35,7 @@ class SweepLogger:
         self,
         stream: rr.RecordingStream,
         image_to_probe: np.ndarray,
-        label_names: tuple[str, ...] = DEFAULT_LABEL_NAMES,
+        label_names: tuple[str, ...] = LABEL_NAMES,
         *,
         robot: bool = True,
     ) -> None:

@@ -9,8 +9,8 @@ import numpy as np
 import rerun as rr
 import trimesh
 
-from resus.visualize.entities import VESSEL_MAP, label_colours
-from resus.visualize.scene import VESSEL_LABELS
+from resus.visualize.entities import VESSEL_MAP
+from sim.labels import VESSEL_CLASSES, label_colour
 
 NEEDLE_COLOUR = (40, 220, 80)
 MM = 1e-3
@@ -19,9 +19,8 @@ MM = 1e-3
 def log_vessel_map(stream: rr.RecordingStream, folder: Path, name: str) -> list[str]:
     """Log (static) the surfaces and needle that `map_vessels` wrote into `folder` (PLY in mm,
     base frame) under `world/vessel_map/<name>`; returns the entity paths logged."""
-    colours = label_colours(max(VESSEL_LABELS.values()) + 1)
     logged = []
-    for vessel, value in VESSEL_LABELS.items():
+    for vessel, value in VESSEL_CLASSES.items():
         path = folder / f"{vessel}.ply"
         if not path.is_file():  # the map found no such vessel
             continue
@@ -33,7 +32,7 @@ def log_vessel_map(stream: rr.RecordingStream, folder: Path, name: str) -> list[
                 vertex_positions=np.asarray(mesh.vertices) * MM,
                 triangle_indices=mesh.faces,
                 vertex_normals=mesh.vertex_normals,
-                albedo_factor=colours[value],
+                albedo_factor=label_colour(value),
             ),
             static=True,
         )

@@ -15,10 +15,10 @@ import numpy as np
 import rerun as rr
 
 from resus.errors import ResusError
+from resus.indices import evenly_spaced
 from resus.reconstruction.grid import VolumeGrid
 from resus.reconstruction.io import intensity_to_uint8
 from resus.reslicing.reslice import Reslice
-from resus.reslicing.sheet import evenly_spaced
 from resus.visualize import entities as at
 from resus.visualize.quads import textured_quad
 from resus.visualize.transforms import quaternions_xyzw
@@ -122,7 +122,7 @@ def log_reslices(
     """Log reslices (a list or a `ResliceDataset`) on the "reslice" timeline, at most `limit`
     of them evenly spread; returns how many were logged."""
     stream.log(at.RESLICE_2D, at.annotation_context(tuple(label_names)), static=True)
-    chosen = range(len(reslices)) if limit is None else evenly_spaced(limit, len(reslices))
+    chosen = range(len(reslices)) if limit is None else evenly_spaced(len(reslices), limit)
     for index in chosen:
         reslice = reslices[index]
         stream.set_time(at.RESLICE, sequence=index)

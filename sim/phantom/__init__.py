@@ -5,13 +5,11 @@ k-th anatomical variant, and `Phantom(spec)` answers labels, tissue samples, dis
 meshes in the phantom frame (metres; +z out of the skin, +y distal, +x the patient's right).
 """
 
+from sim.labels import ARTERY, LABEL_NAMES, VEIN
 from sim.phantom.anatomy import FemoralAnatomy
 from sim.phantom.loader import load_phantom
 from sim.phantom.phantom import VESSEL_SEARCH_RADIUS, Phantom, TissueSample
 from sim.phantom.spec import (
-    ARTERY,
-    LABEL_NAMES,
-    VEIN,
     BodySpec,
     Layer,
     Material,

@@ -14,12 +14,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from sim.labels import ARTERY, VEIN
+
 if TYPE_CHECKING:
     from sim.phantom.anatomy import FemoralAnatomy
 
-ARTERY = 1
-VEIN = 2
-LABEL_NAMES = {0: "background", ARTERY: "artery", VEIN: "vein"}
 BODY_KINDS = ("block", "leg")
 SIDES = ("right", "left")
 

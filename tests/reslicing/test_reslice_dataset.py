@@ -10,7 +10,7 @@ import pytest
 from resus.errors import ResusError
 from resus.reslicing.dataset import SCHEMA, ResliceDataset, ResliceWriter
 from resus.reslicing.reslice import Reslice, ResliceSettings
-from resus.reslicing.sheet import evenly_spaced, overlay_labels, save_contact_sheet
+from resus.reslicing.sheet import overlay_labels, save_contact_sheet
 
 
 def _reslices(count: int, size: int = 16) -> list[Reslice]:
@@ -89,4 +89,3 @@ def test_contact_sheet_colours_arteries_red_and_veins_blue(tmp_path):
     assert picture.ndim == 3 and picture.shape[0] > 100
     with pytest.raises(ResusError, match="nothing passed"):
         save_contact_sheet(tmp_path / "empty.png", [])
-    assert evenly_spaced(4, 10) == [0, 3, 6, 9] and evenly_spaced(24, 5) == [0, 1, 2, 3, 4]
