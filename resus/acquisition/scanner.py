@@ -17,7 +17,6 @@ import bisect
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
 
 import numpy as np
 from tqdm import tqdm
@@ -28,6 +27,7 @@ from resus.acquisition.safety import SafetyLimits, SafetyViolation
 from resus.acquisition.trajectory import Trajectory
 from resus.errors import ResusError
 from resus.sweep.io import SweepWriter
+from resus.sweep.model import FrameSink, SweepFrame
 from sim.transforms import interpolate_poses
 
 
@@ -289,20 +289,6 @@ class Scanner:
             pass
 
 
-class FrameSink(Protocol):
-    """Anything that takes recorded frames the way `SweepWriter.append` does."""
-
-    def append(
-        self,
-        frame: np.ndarray,
-        probe_to_base: np.ndarray,
-        timestamp: float,
-        label: np.ndarray | None = None,
-        wrench: np.ndarray | None = None,
-        joint_positions: np.ndarray | None = None,
-    ) -> None: ...
-
-
 class _Recording:
     """Hands each frame to the writer and listeners; counts them for progress and for an
     aborted scan's report."""
@@ -318,10 +304,9 @@ class _Recording:
     ) -> None:
         if self.frames and time <= self.last_time:
             return  # two frames on one robot-clock instant: keep the first
+        recorded = SweepFrame(self.frames, frame.image, pose, time, frame.label, wrench, joints)
         for sink in self.sinks:
-            sink.append(
-                frame.image, pose, time, label=frame.label, wrench=wrench, joint_positions=joints
-            )
+            sink.append(recorded)
         self.frames += 1
         self.first_time = time if self.first_time is None else self.first_time
         self.last_time = time

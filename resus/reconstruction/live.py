@@ -14,6 +14,7 @@ import rerun as rr
 from resus.acquisition.trajectory import Trajectory
 from resus.reconstruction.compounding import ReconstructionSettings, Reconstructor
 from resus.reconstruction.grid import VolumeGrid, aabb_grid, frame_corner_pixels, frame_points_world
+from resus.sweep.model import SweepFrame
 from resus.visualize.volume import log_volume
 
 PLAN_SAMPLES = 200
@@ -58,18 +59,10 @@ class LiveVolume:
         """How many times the volume was logged."""
         self._logged_frames = 0
 
-    def append(
-        self,
-        frame: np.ndarray,
-        probe_to_base: np.ndarray,
-        timestamp: float,
-        label: np.ndarray | None = None,
-        wrench: np.ndarray | None = None,
-        joint_positions: np.ndarray | None = None,
-    ) -> None:
+    def append(self, frame: SweepFrame) -> None:
         """Compound one frame; log the volume when `every` more frames have come in."""
-        labels = label if self.reconstructor.n_classes else None
-        self.reconstructor.add_frame(frame, probe_to_base, labels)
+        labels = frame.label if self.reconstructor.n_classes else None
+        self.reconstructor.add_frame(frame.image, frame.probe_to_base, labels)
         if self.reconstructor.n_frames % self.every == 0:
             self.log()
 

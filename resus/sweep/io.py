@@ -169,26 +169,24 @@ class SweepWriter:
             with file_errors(self.path, "closing the sweep file"):
                 self._file.close()
 
-    def append(
-        self,
-        frame: np.ndarray,
-        probe_to_base: np.ndarray,
-        timestamp: float,
-        label: np.ndarray | None = None,
-        wrench: np.ndarray | None = None,
-        joint_positions: np.ndarray | None = None,
-    ) -> None:
+    def append(self, frame: SweepFrame) -> None:
         """Check one frame and its data, write it, and flush it to disk."""
         n = self._count
         with file_errors(self.path, f"writing frame {n}"):
             if not self._file.id.valid:
                 raise SweepError("the sweep writer is closed")
+            if frame.index != n:
+                raise SweepError(f"frame {frame.index} arrived where frame {n} was due")
             rows = {
-                "frames": self._checked_image(frame, "frame", n),
-                "probe_to_base": check_poses(np.asarray(probe_to_base)[None], start=n)[0],
+                "frames": self._checked_image(frame.image, "frame", n),
+                "probe_to_base": check_poses(np.asarray(frame.probe_to_base)[None], start=n)[0],
             }
-            time = float(check_timestamps(np.atleast_1d(timestamp), n, self._last_time)[0])
-            optional = {"labels": label, "wrench": wrench, "joint_positions": joint_positions}
+            time = float(check_timestamps(np.atleast_1d(frame.timestamp), n, self._last_time)[0])
+            optional = {
+                "labels": frame.label,
+                "wrench": frame.wrench,
+                "joint_positions": frame.joint_positions,
+            }
             for name, value in optional.items():
                 if (value is not None) != (name in self._datasets):
                     has = "has" if name in self._datasets else "has no"
@@ -423,12 +421,4 @@ def write_sweep(path: str | Path, sweep: Sweep) -> None:
         created=sweep.created,
     ) as writer:
         for index in range(len(sweep)):
-            frame = sweep.frame(index)
-            writer.append(
-                frame.image,
-                frame.probe_to_base,
-                frame.timestamp,
-                label=frame.label,
-                wrench=frame.wrench,
-                joint_positions=frame.joint_positions,
-            )
+            writer.append(sweep.frame(index))

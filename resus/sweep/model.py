@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -170,9 +170,16 @@ class SweepFrame(NamedTuple):
     image: np.ndarray
     probe_to_base: np.ndarray
     timestamp: float
-    label: np.ndarray | None
-    wrench: np.ndarray | None
-    joint_positions: np.ndarray | None
+    label: np.ndarray | None = None
+    wrench: np.ndarray | None = None
+    joint_positions: np.ndarray | None = None
+
+
+class FrameSink(Protocol):
+    """Anything that takes a scan's frames one by one, in order: the Sweep file writer, the
+    live reconstruction, the rerun logger. `frame.index` counts from 0 in the scan."""
+
+    def append(self, frame: SweepFrame) -> None: ...
 
 
 @dataclass(frozen=True, eq=False)

@@ -14,7 +14,7 @@ import numpy as np
 import rerun as rr
 from tqdm import tqdm
 
-from resus.sweep.model import Sweep
+from resus.sweep.model import Sweep, SweepFrame
 from resus.visualize import entities as at
 from resus.visualize.quads import textured_quad
 from resus.visualize.robot import log_robot_shapes, send_robot_poses
@@ -53,25 +53,17 @@ class SweepLogger:
             stream.log(path, rr.SeriesLines(names=names), static=True)
         stream.log(at.JOINTS, rr.SeriesLines(names=JOINT_NAMES), static=True)
 
-    def append(
-        self,
-        frame: np.ndarray,
-        probe_to_base: np.ndarray,
-        timestamp: float,
-        label: np.ndarray | None = None,
-        wrench: np.ndarray | None = None,
-        joint_positions: np.ndarray | None = None,
-        prediction: np.ndarray | None = None,
-    ) -> None:
-        """Log one frame and what was recorded with it (the arguments of `SweepWriter.append`)."""
+    def append(self, frame: SweepFrame, prediction: np.ndarray | None = None) -> None:
+        """Log one recorded frame (and optionally a model's labels for it)."""
 
         def row(value: np.ndarray | None) -> np.ndarray | None:
             return None if value is None else np.asarray(value)[None]
 
         self.log_frames(
-            row(frame), row(probe_to_base), np.array([timestamp], dtype=np.float64),
-            labels=row(label), wrench=row(wrench), joint_positions=row(joint_positions),
-            predictions=row(prediction),
+            row(frame.image), row(frame.probe_to_base),
+            np.array([frame.timestamp], dtype=np.float64),
+            labels=row(frame.label), wrench=row(frame.wrench),
+            joint_positions=row(frame.joint_positions), predictions=row(prediction),
         )  # fmt: skip
 
     def log_frames(

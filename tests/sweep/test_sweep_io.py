@@ -14,7 +14,7 @@ import pytest
 from sweep_samples import sample_sweep
 
 from resus.sweep.io import SCHEMA, SweepReader, SweepWriter, read_sweep, write_sweep
-from resus.sweep.model import SweepError
+from resus.sweep.model import SweepError, SweepFrame
 
 ARRAYS = (
     "frames",
@@ -86,10 +86,11 @@ def test_writer_checks_each_frame_and_keeps_the_good_ones(tmp_path):
     sweep = sample_sweep(n=4)
     path = tmp_path / "s.h5"
     with SweepWriter(path, (24, 32), sweep.image_to_probe, with_labels=True) as writer:
+        def labelled(i: int) -> SweepFrame:  # the file keeps labels, no wrench or joints
+            return sweep.frame(i)._replace(wrench=None, joint_positions=None)
+
         for i in range(2):
-            writer.append(
-                sweep.frames[i], sweep.probe_to_base[i], sweep.timestamps[i], label=sweep.labels[i]
-            )
+            writer.append(labelled(i))
         sheared = sweep.probe_to_base[2].copy()
         sheared[0, 1] += 0.05
         bad_frames = [
@@ -100,25 +101,24 @@ def test_writer_checks_each_frame_and_keeps_the_good_ones(tmp_path):
         ]
         for (frame, pose, time), message in bad_frames:
             with pytest.raises(SweepError) as caught:
-                writer.append(frame, pose, time, label=sweep.labels[2])
+                writer.append(SweepFrame(2, frame, pose, time, sweep.labels[2]))
             assert message in str(caught.value) and str(path) in str(caught.value)
         with pytest.raises(SweepError, match="labels missing, but the file has labels"):
-            writer.append(sweep.frames[2], sweep.probe_to_base[2], 11.0)
+            writer.append(SweepFrame(2, sweep.frames[2], sweep.probe_to_base[2], 11.0))
         with pytest.raises(SweepError, match="wrench given, but the file has no wrench"):
             writer.append(
-                sweep.frames[2],
-                sweep.probe_to_base[2],
-                11.0,
-                label=sweep.labels[2],
-                wrench=np.zeros(6),
+                SweepFrame(
+                    2, sweep.frames[2], sweep.probe_to_base[2], 11.0, sweep.labels[2], np.zeros(6)
+                )
             )
+        seven = np.full((24, 32), 7, np.uint8)
         with pytest.raises(SweepError, match=r"labels\[2\] holds value 7"):
-            writer.append(
-                sweep.frames[2], sweep.probe_to_base[2], 11.0, label=np.full((24, 32), 7, np.uint8)
-            )
+            writer.append(SweepFrame(2, sweep.frames[2], sweep.probe_to_base[2], 11.0, seven))
+        with pytest.raises(SweepError, match="frame 3 arrived where frame 2 was due"):
+            writer.append(labelled(3))
         assert len(writer) == 2
     with pytest.raises(SweepError, match="writer is closed"):
-        writer.append(sweep.frames[2], sweep.probe_to_base[2], 11.0, label=sweep.labels[2])
+        writer.append(SweepFrame(2, sweep.frames[2], sweep.probe_to_base[2], 11.0, sweep.labels[2]))
     back = read_sweep(path)
     assert len(back) == 2
     np.testing.assert_array_equal(back.frames, sweep.frames[:2])
@@ -256,6 +256,7 @@ WRITER = textwrap.dedent(
     import sys
     import numpy as np
     from resus.sweep.io import SweepWriter
+    from resus.sweep.model import SweepFrame
     from sim.transforms import make_pose
 
     calibration = np.diag([1e-4, 1e-4, 1e-4, 1.0])
@@ -264,8 +265,8 @@ WRITER = textwrap.dedent(
         for i in range(100000):
             image = np.random.default_rng(i).integers(0, 256, (96, 128), dtype=np.uint8)
             pose = make_pose(np.eye(3), (i * 1e-3, 0.0, 0.0))
-            writer.append(image, pose, 0.01 * i, label=(image % 3).astype(np.uint8),
-                          wrench=np.full(6, float(i)))
+            writer.append(SweepFrame(i, image, pose, 0.01 * i, label=(image % 3).astype(np.uint8),
+                                     wrench=np.full(6, float(i))))
             print(i + 1, flush=True)
     """
 )

@@ -117,15 +117,7 @@ def test_live_logging_frame_by_frame_equals_the_bulk_log(saved, sweep, tmp_path)
     with open_recording("test", save=path) as session:
         logger = SweepLogger(session.stream, sweep.image_to_probe, sweep.label_names)
         for i in range(N):
-            frame = sweep.frame(i)
-            logger.append(
-                frame.image,
-                frame.probe_to_base,
-                frame.timestamp,
-                label=frame.label,
-                wrench=frame.wrench,
-                joint_positions=frame.joint_positions,
-            )
+            logger.append(sweep.frame(i))
     live = Recording(path)
     assert logger.count == N
     for entity, component in [
