@@ -1,7 +1,10 @@
-"""The one exception type the command line turns into a one-line message."""
+"""The one exception type the command line turns into a one-line message, and the one place
+where the simulator's errors become it."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -15,3 +18,16 @@ class ResusError(Exception):
     def __init__(self, message: str, path: str | Path | None = None) -> None:
         self.path = None if path is None else Path(path)
         super().__init__(f"{path}: {message}" if path is not None else message)
+
+
+@contextmanager
+def simulator_errors(context: str | None = None) -> Iterator[None]:
+    """Turn a `ValueError` from `sim` (a bad phantom spec, scene or setting) into a ResusError.
+
+    `sim` knows nothing of `resus`, so it raises plain `ValueError`s with one-line messages;
+    this is where they cross into the pipeline, prefixed with `context` when given.
+    """
+    try:
+        yield
+    except ValueError as error:
+        raise ResusError(f"{context}: {error}" if context else str(error)) from None

@@ -7,8 +7,6 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from sim.assets import assets_dir
-
 from resus.acquisition.backends.simulated import (
     SimulatedProbe,
     SimulatedProbeConfig,
@@ -17,37 +15,27 @@ from resus.acquisition.backends.simulated import (
 from resus.acquisition.patterns import linear_sweep
 from resus.acquisition.scanner import Scanner, ScannerSettings, ScanResult
 from resus.acquisition.trajectory import Trajectory
-from resus.errors import ResusError
-from sim.phantom import Phantom, PhantomSpec, load_phantom, make_subject
-from sim.robot.scene_config import SceneConfig, load_scene_config
+from resus.errors import simulator_errors
+from sim.phantom import Phantom, PhantomSpec
+from sim.robot.scene import load_scene_phantom
+from sim.robot.scene_config import SceneConfig, load_scene_config, scene_path
 
 SUBJECT_ID = re.compile(r"^(?P<phantom>[^/]+)/(?P<subject>nominal|\d+)$")
 
 
 def resolve_scene(scene: str | Path, phantom: str | None, subject: int | None) -> SceneConfig:
     """A scene by name (`assets/scenes/NAME.yaml`) or path, with phantom and subject set."""
-    path = Path(scene)
-    if not path.suffix:
-        path = assets_dir() / "scenes" / f"{scene}.yaml"
-    try:
-        config = load_scene_config(path)
-        changes = {"subject": subject} if subject is not None else {}
-        if phantom is not None:
-            changes["phantom"] = phantom
-        return dataclasses.replace(config, **changes)
-    except ValueError as error:
-        raise ResusError(str(error)) from None
+    changes: dict[str, object] = {"subject": subject} if subject is not None else {}
+    if phantom is not None:
+        changes["phantom"] = phantom
+    with simulator_errors():
+        return dataclasses.replace(load_scene_config(scene_path(scene)), **changes)
 
 
 def phantom_spec(scene: SceneConfig, seed: int | None = None) -> PhantomSpec:
     """The scene's phantom, with its seed replaced if given, then its subject's variant."""
-    try:
-        spec = load_phantom(scene.phantom)
-        if seed is not None:
-            spec = dataclasses.replace(spec, seed=seed)
-        return spec if scene.subject is None else make_subject(spec, scene.subject)
-    except ValueError as error:
-        raise ResusError(f"phantom {scene.phantom!r}: {error}") from None
+    with simulator_errors(f"phantom {scene.phantom!r}"):
+        return load_scene_phantom(scene, seed)
 
 
 @dataclass(frozen=True)

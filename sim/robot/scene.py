@@ -9,6 +9,8 @@ the wrist force/torque sensor reads.
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -36,9 +38,12 @@ def scene_xml_path() -> str:
     return str(assets_dir() / "ur3e" / "scene.xml")
 
 
-def load_scene_phantom(config: SceneConfig) -> PhantomSpec:
-    """The scene's phantom spec: the named spec, made into the scene's subject if one is set."""
+def load_scene_phantom(config: SceneConfig, seed: int | None = None) -> PhantomSpec:
+    """The scene's phantom spec: the named spec, with its seed replaced if `seed` is given, made
+    into the scene's subject if one is set (the subject's anatomy is drawn from the seed)."""
     spec = load_phantom(config.phantom)
+    if seed is not None:
+        spec = dataclasses.replace(spec, seed=seed)
     return spec if config.subject is None else make_subject(spec, config.subject)
 
 

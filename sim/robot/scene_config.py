@@ -30,9 +30,17 @@ from sim.transforms import is_rigid, make_pose
 LEG_SIDES = ("right", "left")
 
 
+def scene_path(scene: str | Path) -> Path:
+    """A scene file: a path (it has a suffix or a folder), or a name in `assets/scenes/`."""
+    path = Path(scene)
+    if path.suffix or len(path.parts) > 1:
+        return path
+    return assets_dir() / "scenes" / f"{scene}.yaml"
+
+
 def default_scene_path() -> Path:
-    """The default scene file shipped with the repository."""
-    return assets_dir() / "scenes" / "default.yaml"
+    """The default scene file shipped with the package."""
+    return scene_path("default")
 
 
 def _default_phantom_to_base() -> np.ndarray:

@@ -19,7 +19,7 @@ import queue
 import numpy as np
 
 from resus.acquisition.backends.simulated import SimulatedProbeConfig
-from resus.acquisition.probe import Frame, Probe
+from resus.acquisition.probe import Frame, SyntheticProbe
 from resus.acquisition.robot import Robot
 from resus.errors import ResusError
 from sim.phantom import Phantom, PhantomSpec
@@ -46,11 +46,9 @@ def _render_loop(spec: PhantomSpec, config: SimulatedProbeConfig, requests, resu
         results.put((time, image, label))
 
 
-class RenderProcessProbe(Probe):
+class RenderProcessProbe(SyntheticProbe):
     """Synthetic ultrasound of the scene's phantom at `robot`'s reported pose, rendered in a
     worker process; frames are stamped on the robot clock."""
-
-    has_labels = True
 
     def __init__(
         self,
@@ -63,8 +61,7 @@ class RenderProcessProbe(Probe):
         self.robot = robot
         self.config = config
         self.phantom = phantom
-        self.image_to_probe = config.probe.image_to_probe()
-        self.shape = (config.probe.rows, config.probe.cols)
+        self.geometry = config.probe
         self._base_to_phantom = invert_pose(scene.phantom_to_base)
         context = multiprocessing.get_context("spawn")
         self._requests, self._results = context.Queue(), context.Queue()

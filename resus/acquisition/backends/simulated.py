@@ -12,9 +12,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from resus.acquisition.probe import Frame, Probe
+from resus.acquisition.probe import Frame, SyntheticProbe
 from resus.acquisition.robot import Robot, RobotFault
-from sim.phantom import Phantom, PhantomSpec, load_phantom, make_subject
+from sim.phantom import Phantom
+from sim.robot.scene import load_scene_phantom
 from sim.robot.scene_config import SceneConfig
 from sim.robot.ur3e import CONTROL_PERIOD, ProtectiveStopError, SimulatedUR3e
 from sim.transforms import invert_pose
@@ -24,12 +25,6 @@ from sim.ultrasound.simulator import UltrasoundSimulator
 
 FORCE_MODE_SPEED_LIMIT = 0.05
 """Highest TCP speed along the compliant probe axis in force mode (m/s)."""
-
-
-def scene_phantom_spec(scene: SceneConfig) -> PhantomSpec:
-    """The phantom spec a scene names, with its subject's anatomy when it names one."""
-    spec = load_phantom(scene.phantom)
-    return spec if scene.subject is None else make_subject(spec, scene.subject)
 
 
 class SimulatedRobot(Robot):
@@ -112,14 +107,12 @@ class SimulatedProbeConfig:
             raise ValueError(f"latency must be >= 0, got {self.latency}")
 
 
-class SimulatedProbe(Probe):
+class SimulatedProbe(SyntheticProbe):
     """Synthetic ultrasound of the scene's phantom at the robot's reported TCP pose.
 
     The robot may be the in-process MuJoCo arm or any other `Robot` on the same scene (e.g.
     `RTDERobot` talking to the emulator), since the probe only reads its TCP pose and clock.
     """
-
-    has_labels = True
 
     def __init__(
         self,
@@ -133,11 +126,10 @@ class SimulatedProbe(Probe):
         self.robot = robot
         self.config = config or SimulatedProbeConfig()
         self.scene = scene or robot.scene
-        self.phantom = phantom or Phantom(scene_phantom_spec(self.scene))
+        self.phantom = phantom or Phantom(load_scene_phantom(self.scene))
         self._base_to_phantom = invert_pose(self.scene.phantom_to_base)
         self.simulator = UltrasoundSimulator(self.phantom, self.config.probe, self.config.settings)
-        self.image_to_probe = self.config.probe.image_to_probe()
-        self.shape = (self.config.probe.rows, self.config.probe.cols)
+        self.geometry = self.config.probe
         self._next_frame_time = robot.time()
         self._in_flight: list[tuple[float, Frame]] = []
 

@@ -96,8 +96,8 @@ class VideoProbe(Probe):
         except ResusError:
             self._capture.release()
             raise
-        self.shape = (self.crop[3], self.crop[2])
-        self.image_to_probe = calibration.image_to_probe(self.shape)
+        self._shape = (self.crop[3], self.crop[2])
+        self._image_to_probe = calibration.image_to_probe(self._shape)
         self.frame_rate = float(self._capture.get(cv2.CAP_PROP_FPS) or 0.0)
         """Frames per second the source reports (0 when it does not say)."""
         self.dropped = 0
@@ -155,6 +155,14 @@ class VideoProbe(Probe):
                     self.dropped += 1
                 self._frames.append(frame)
             index += 1
+
+    @property
+    def image_to_probe(self) -> np.ndarray:
+        return self._image_to_probe
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self._shape
 
     def poll(self) -> list[Frame]:
         """Frames grabbed since the last call, oldest first."""
