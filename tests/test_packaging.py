@@ -1,0 +1,33 @@
+"""The wheel carries everything an installed `resus` needs: the assets as package data."""
+
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import sim.assets
+
+REPOSITORY = Path(__file__).resolve().parents[1]
+
+
+def test_wheel_ships_every_asset_as_package_data(tmp_path: Path) -> None:
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+         "-w", str(tmp_path), str(REPOSITORY)],
+        check=True, capture_output=True, timeout=300,
+    )  # fmt: skip
+    (wheel,) = tmp_path.glob("resus_testbed-*.whl")
+    shipped = set(zipfile.ZipFile(wheel).namelist())
+    assets = REPOSITORY / "assets"
+    expected = {
+        f"sim/assets/{path.relative_to(assets).as_posix()}"
+        for path in assets.rglob("*")
+        if path.is_file() and path.suffix in {".xml", ".yaml", ".md", ".py"}
+    }
+    assert expected and expected <= shipped, sorted(expected - shipped)
+    assert "resus/__main__.py" in shipped
+
+
+def test_assets_are_found_through_the_package() -> None:
+    folder = sim.assets.assets_dir()
+    assert (folder / "ur3e" / "scene.xml").is_file() and (folder / "phantoms").is_dir()
