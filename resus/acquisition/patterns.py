@@ -5,17 +5,23 @@ of the skin, +y distal along the leg, +x the patient's right); the trajectory co
 the robot base frame through the scene's `phantom_to_base`. Every pattern projects its path
 onto the skin with the probe normal to it, so it follows a curved (leg) surface too.
 
-- `linear_sweep`: one straight sweep at a fixed tilt (the paper's scan).
-- `fan_sweep`: the probe stays on one spot and rocks about its array axis.
-- `multipass_sweep`: parallel sweeps in one direction, side by side; the moves back to the
+Each pattern is a frozen dataclass of its parameters (checked on creation, defaults stated
+once) whose `trajectory(phantom, phantom_to_base)` makes the path; `linear_sweep` and its
+siblings are the same as one call.
+
+- `LinearPattern`: one straight sweep at a fixed tilt (the paper's scan).
+- `FanPattern`: the probe stays on one spot and rocks about its array axis.
+- `MultipassPattern`: parallel sweeps in one direction, side by side; the moves back to the
   next pass's start stay on the skin and are not imaging segments.
-- `raster_sweep`: a zig-zag whose passes alternate direction, joined by U-turns on the skin
+- `RasterPattern`: a zig-zag whose passes alternate direction, joined by U-turns on the skin
   (no lift, the probe keeps its orientation); the U-turns are not imaging segments.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -53,7 +59,7 @@ def sweep_heading(direction: tuple[float, float]) -> np.ndarray:
     """Unit (x, y, 0) heading in the phantom frame from a 2D direction."""
     heading = np.array([direction[0], direction[1], 0.0], dtype=np.float64)
     if not (np.all(np.isfinite(heading)) and np.linalg.norm(heading) > 0):
-        raise ResusError(f"--direction must be a non-zero (x, y) vector, got {direction}")
+        raise ResusError(f"the sweep direction must be a non-zero (x, y) vector, got {direction}")
     return heading / np.linalg.norm(heading)
 
 
@@ -79,7 +85,7 @@ def skin_poses(
         outside = xy[int(np.flatnonzero(~np.isfinite(z))[0])]
         raise ResusError(
             f"the path leaves the phantom's skin at ({outside[0]:.3f}, {outside[1]:.3f}) m: "
-            "change --start, --direction or --length"
+            "change the pattern's start, direction or length"
         )
     normals = phantom.skin_normal(x, y)
     return np.stack(
@@ -105,224 +111,207 @@ def _u_turn(start: np.ndarray, end: np.ndarray, heading: np.ndarray) -> np.ndarr
     return centre + np.cos(angles) * radius_vector + np.sin(angles) * radius * heading[:2]
 
 
-def _check_sweep_parameters(length: float, speed: float, acceleration: float) -> None:
-    if not length > 0:
-        raise ResusError(f"--length must be positive, got {length}")
-    if not speed > 0:
-        raise ResusError(f"--speed must be positive, got {speed}")
-    if not acceleration > 0:
-        raise ResusError(f"--acceleration must be positive, got {acceleration}")
+@dataclass(frozen=True)
+class SweepPattern:
+    """What every pattern shares: where it starts on the skin (x, y in the phantom frame, m),
+    the sweep direction (x, y), the probe's speed (m/s) and acceleration (m/s^2), the contact
+    force (N; None for position control), the frame rate (1/s) and the tilt about the array
+    axis (deg). Each subclass's defaults are the one place its sweep defaults live."""
+
+    start: tuple[float, float] = (0.0, -0.04)
+    direction: tuple[float, float] = (0.0, 1.0)
+    speed: float = 0.01
+    contact_force: float | None = 4.0
+    frame_rate: float = 30.0
+    tilt_deg: float = 0.0
+    acceleration: float = 0.05
+
+    name: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        kind = type(self).__name__
+        for field in ("speed", "acceleration", "frame_rate"):
+            value = getattr(self, field)
+            if not (np.isfinite(value) and value > 0):
+                raise ResusError(f"{kind}.{field} must be positive, got {value}")
+        if self.contact_force is not None and not self.contact_force > 0:
+            raise ResusError(
+                f"{kind}.contact_force must be positive or None, got {self.contact_force}"
+            )
+        sweep_heading(self.direction)
+
+    @property
+    def heading(self) -> np.ndarray:
+        """Unit (x, y, 0) sweep direction in the phantom frame."""
+        return sweep_heading(self.direction)
+
+    def _trajectory(self, waypoints: np.ndarray, **shape: float | int) -> Trajectory:
+        """The trajectory through `waypoints` with this pattern's motion settings, recording
+        the pattern's name, start, direction, tilt and `shape` parameters."""
+        return Trajectory(
+            waypoints=waypoints,
+            speed=self.speed,
+            acceleration=self.acceleration,
+            contact_force=self.contact_force,
+            frame_rate=self.frame_rate,
+            name=self.name,
+            pattern={
+                "pattern": self.name,
+                "start": [float(v) for v in self.start],
+                "direction": [float(v) for v in self.heading[:2]],
+                **shape,
+                "tilt_deg": float(self.tilt_deg),
+            },
+        )
+
+    def trajectory(self, phantom: Phantom, phantom_to_base: np.ndarray) -> Trajectory:
+        """The pattern over `phantom`, in the base frame through `phantom_to_base`."""
+        raise NotImplementedError
 
 
-def _check_passes(passes: int, offset: float) -> None:
-    if passes < 1:
-        raise ResusError(f"--passes must be at least 1, got {passes}")
-    if passes > 1 and not (np.isfinite(offset) and offset != 0):
-        raise ResusError(f"--offset must be a non-zero distance (m) between passes, got {offset}")
+@dataclass(frozen=True)
+class LinearPattern(SweepPattern):
+    """The paper's scan: a straight sweep of `length` m along the skin, probe normal to it,
+    at one tilt. The path follows the skin height, so it works over a curved leg too."""
+
+    length: float = 0.08
+    name: ClassVar[str] = "linear"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not (np.isfinite(self.length) and self.length > 0):
+            raise ResusError(f"LinearPattern.length must be positive, got {self.length}")
+
+    def trajectory(self, phantom: Phantom, phantom_to_base: np.ndarray) -> Trajectory:
+        start = np.asarray(self.start, dtype=np.float64)
+        xy = _straight(start, start + self.length * self.heading[:2])
+        tilts = np.full(len(xy), np.radians(self.tilt_deg))
+        waypoints = skin_poses(phantom, phantom_to_base, xy, self.heading, tilts)
+        return self._trajectory(waypoints, length=float(self.length))
 
 
-def _pieced_trajectory(
-    phantom: Phantom,
-    phantom_to_base: np.ndarray,
-    pieces: list[tuple[np.ndarray, bool]],
-    heading: np.ndarray,
-    tilt: float,
-    settings: dict,
-) -> Trajectory:
-    """A trajectory through consecutive polylines; those flagged True are imaging segments."""
-    points, spans = [], []
-    for piece, imaging in pieces:
-        first = len(points) - 1 if points else 0
-        points.extend(piece[1:] if points else piece)
-        if imaging:
-            spans.append((first, len(points) - 1))
-    xy = np.array(points)
-    waypoints = skin_poses(phantom, phantom_to_base, xy, heading, np.full(len(xy), tilt))
-    trajectory = Trajectory(waypoints=waypoints, **settings)
-    knots = np.concatenate([[0.0], np.cumsum(trajectory.segment_lengths)])
-    segments = tuple((float(knots[a]), float(knots[b])) for a, b in spans)
-    return dataclasses.replace(trajectory, imaging_segments=segments)
-
-
-def linear_sweep(
-    phantom: Phantom,
-    phantom_to_base: np.ndarray,
-    *,
-    start: tuple[float, float] = (0.0, -0.04),
-    direction: tuple[float, float] = (0.0, 1.0),
-    length: float = 0.08,
-    speed: float = 0.01,
-    contact_force: float | None = 4.0,
-    frame_rate: float = 30.0,
-    tilt_deg: float = 0.0,
-    acceleration: float = 0.05,
-) -> Trajectory:
-    """The paper's scan: a straight sweep along the skin, probe normal to it, at one tilt.
-
-    `start` and `direction` are (x, y) in the phantom frame; the path follows the skin height
-    under it, so it also works over a curved (leg-like) surface.
-    """
-    _check_sweep_parameters(length, speed, acceleration)
-    heading = sweep_heading(direction)
-    xy = _straight(np.asarray(start, dtype=np.float64), np.asarray(start) + length * heading[:2])
-    tilt = np.radians(tilt_deg)
-    return Trajectory(
-        waypoints=skin_poses(phantom, phantom_to_base, xy, heading, np.full(len(xy), tilt)),
-        speed=speed,
-        acceleration=acceleration,
-        contact_force=contact_force,
-        frame_rate=frame_rate,
-        name="linear",
-        pattern={
-            "pattern": "linear",
-            "start": [float(v) for v in start],
-            "direction": [float(v) for v in heading[:2]],
-            "length": float(length),
-            "tilt_deg": float(tilt_deg),
-        },
-    )
-
-
-def fan_sweep(
-    phantom: Phantom,
-    phantom_to_base: np.ndarray,
-    *,
-    start: tuple[float, float] = (0.0, 0.0),
-    direction: tuple[float, float] = (0.0, 1.0),
-    fan_deg: float = 40.0,
-    speed: float = 0.01,
-    contact_force: float | None = 4.0,
-    frame_rate: float = 30.0,
-    tilt_deg: float = 0.0,
-    acceleration: float = 0.05,
-) -> Trajectory:
+@dataclass(frozen=True)
+class FanPattern(SweepPattern):
     """The probe stays at `start` and rocks about its array axis through `fan_deg`.
 
     The beam leans from `tilt_deg - fan_deg / 2` to `tilt_deg + fan_deg / 2` towards
     `direction`; `speed` is the speed of the image's deepest point (the trajectory's
     rotation radius), so frame spacing at depth is speed / frame rate as for a linear sweep.
     """
-    if not 0 < fan_deg < 180:
-        raise ResusError(f"--fan-angle must lie in (0, 180) degrees, got {fan_deg}")
-    _check_sweep_parameters(1.0, speed, acceleration)
-    heading = sweep_heading(direction)
-    count = max(2, int(np.ceil(fan_deg / FAN_STEP_DEG)) + 1)
-    tilts = np.radians(tilt_deg + np.linspace(-0.5 * fan_deg, 0.5 * fan_deg, count))
-    xy = np.repeat(np.asarray(start, dtype=np.float64)[None], count, axis=0)
-    return Trajectory(
-        waypoints=skin_poses(phantom, phantom_to_base, xy, heading, tilts),
-        speed=speed,
-        acceleration=acceleration,
-        contact_force=contact_force,
-        frame_rate=frame_rate,
-        name="fan",
-        pattern={
-            "pattern": "fan",
-            "start": [float(v) for v in start],
-            "direction": [float(v) for v in heading[:2]],
-            "fan_deg": float(fan_deg),
-            "tilt_deg": float(tilt_deg),
-        },
-    )
+
+    start: tuple[float, float] = (0.0, 0.0)
+    fan_deg: float = 40.0
+    name: ClassVar[str] = "fan"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not 0 < self.fan_deg < 180:
+            raise ResusError(f"FanPattern.fan_deg must lie in (0, 180) degrees, got {self.fan_deg}")
+
+    def trajectory(self, phantom: Phantom, phantom_to_base: np.ndarray) -> Trajectory:
+        count = max(2, int(np.ceil(self.fan_deg / FAN_STEP_DEG)) + 1)
+        half = 0.5 * self.fan_deg
+        tilts = np.radians(self.tilt_deg + np.linspace(-half, half, count))
+        xy = np.repeat(np.asarray(self.start, dtype=np.float64)[None], count, axis=0)
+        waypoints = skin_poses(phantom, phantom_to_base, xy, self.heading, tilts)
+        return self._trajectory(waypoints, fan_deg=float(self.fan_deg))
 
 
-def multipass_sweep(
-    phantom: Phantom,
-    phantom_to_base: np.ndarray,
-    *,
-    start: tuple[float, float] = (-0.01, -0.04),
-    direction: tuple[float, float] = (0.0, 1.0),
-    length: float = 0.08,
-    passes: int = 2,
-    offset: float = 0.02,
-    speed: float = 0.01,
-    contact_force: float | None = 4.0,
-    frame_rate: float = 30.0,
-    tilt_deg: float = 0.0,
-    acceleration: float = 0.05,
-) -> Trajectory:
+@dataclass(frozen=True)
+class MultipassPattern(LinearPattern):
     """`passes` parallel sweeps in the same direction, each `offset` m further along the
     probe's array (phantom +x for a +y sweep); the returns between them are transit."""
-    _check_sweep_parameters(length, speed, acceleration)
-    _check_passes(passes, offset)
-    heading = sweep_heading(direction)
-    step, along = offset * lateral_of(heading)[:2], length * heading[:2]
-    first = np.asarray(start, dtype=np.float64)
-    pieces: list[tuple[np.ndarray, bool]] = []
-    for k in range(passes):
-        if k:
-            pieces.append((_straight(first + (k - 1) * step + along, first + k * step), False))
-        pieces.append((_straight(first + k * step, first + k * step + along), True))
-    settings = _settings("multipass", speed, acceleration, contact_force, frame_rate)
-    settings["pattern"] = {
-        "pattern": "multipass",
-        "start": [float(v) for v in start],
-        "direction": [float(v) for v in heading[:2]],
-        "length": float(length),
-        "passes": int(passes),
-        "offset": float(offset),
-        "tilt_deg": float(tilt_deg),
-    }
-    return _pieced_trajectory(
-        phantom, phantom_to_base, pieces, heading, np.radians(tilt_deg), settings
-    )
+
+    start: tuple[float, float] = (-0.01, -0.04)
+    passes: int = 2
+    offset: float = 0.02
+    name: ClassVar[str] = "multipass"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        kind = type(self).__name__
+        if self.passes < 1:
+            raise ResusError(f"{kind}.passes must be at least 1, got {self.passes}")
+        if self.passes > 1 and not (np.isfinite(self.offset) and self.offset != 0):
+            raise ResusError(
+                f"{kind}.offset must be a non-zero distance (m) between passes, got {self.offset}"
+            )
+
+    def pieces(self) -> list[tuple[np.ndarray, bool]]:
+        """The path as polylines (N, 2) in the phantom frame, each flagged True if imaging."""
+        step, along = self.offset * lateral_of(self.heading)[:2], self.length * self.heading[:2]
+        first = np.asarray(self.start, dtype=np.float64)
+        pieces: list[tuple[np.ndarray, bool]] = []
+        for k in range(self.passes):
+            if k:
+                pieces.append((_straight(first + (k - 1) * step + along, first + k * step), False))
+            pieces.append((_straight(first + k * step, first + k * step + along), True))
+        return pieces
+
+    def trajectory(self, phantom: Phantom, phantom_to_base: np.ndarray) -> Trajectory:
+        points, spans = [], []
+        for piece, imaging in self.pieces():
+            first = len(points) - 1 if points else 0
+            points.extend(piece[1:] if points else piece)
+            if imaging:
+                spans.append((first, len(points) - 1))
+        xy = np.array(points)
+        tilts = np.full(len(xy), np.radians(self.tilt_deg))
+        waypoints = skin_poses(phantom, phantom_to_base, xy, self.heading, tilts)
+        trajectory = self._trajectory(
+            waypoints, length=float(self.length), passes=int(self.passes), offset=float(self.offset)
+        )
+        knots = np.concatenate([[0.0], np.cumsum(trajectory.segment_lengths)])
+        segments = tuple((float(knots[a]), float(knots[b])) for a, b in spans)
+        return dataclasses.replace(trajectory, imaging_segments=segments)
 
 
-def raster_sweep(
-    phantom: Phantom,
-    phantom_to_base: np.ndarray,
-    *,
-    start: tuple[float, float] = (-0.01, -0.04),
-    direction: tuple[float, float] = (0.0, 1.0),
-    length: float = 0.08,
-    passes: int = 2,
-    offset: float = 0.02,
-    speed: float = 0.01,
-    contact_force: float | None = 4.0,
-    frame_rate: float = 30.0,
-    tilt_deg: float = 0.0,
-    acceleration: float = 0.05,
-) -> Trajectory:
+@dataclass(frozen=True)
+class RasterPattern(MultipassPattern):
     """A zig-zag: passes alternate direction, `offset` m apart along the probe's array, joined
     by half-circle U-turns on the skin beyond each pass's end. The probe keeps its orientation
     throughout (every frame is parallel), so the U-turns need no wrist rotation; they are
     marked as non-imaging so their frames can be discarded."""
-    _check_sweep_parameters(length, speed, acceleration)
-    _check_passes(passes, offset)
-    heading = sweep_heading(direction)
-    step, along = offset * lateral_of(heading)[:2], length * heading[:2]
-    first = np.asarray(start, dtype=np.float64)
-    pieces: list[tuple[np.ndarray, bool]] = []
-    for k in range(passes):
-        forward = k % 2 == 0
-        begin = first + k * step + (0.0 if forward else 1.0) * along
-        end = first + k * step + (1.0 if forward else 0.0) * along
-        if k:
-            bulge = heading if not forward else -heading
-            pieces.append((_u_turn(begin - step, begin, bulge), False))
-        pieces.append((_straight(begin, end), True))
-    settings = _settings("raster", speed, acceleration, contact_force, frame_rate)
-    settings["pattern"] = {
-        "pattern": "raster",
-        "start": [float(v) for v in start],
-        "direction": [float(v) for v in heading[:2]],
-        "length": float(length),
-        "passes": int(passes),
-        "offset": float(offset),
-        "tilt_deg": float(tilt_deg),
-    }
-    return _pieced_trajectory(
-        phantom, phantom_to_base, pieces, heading, np.radians(tilt_deg), settings
-    )
+
+    name: ClassVar[str] = "raster"
+
+    def pieces(self) -> list[tuple[np.ndarray, bool]]:
+        step, along = self.offset * lateral_of(self.heading)[:2], self.length * self.heading[:2]
+        first = np.asarray(self.start, dtype=np.float64)
+        pieces: list[tuple[np.ndarray, bool]] = []
+        for k in range(self.passes):
+            forward = k % 2 == 0
+            begin = first + k * step + (0.0 if forward else 1.0) * along
+            end = first + k * step + (1.0 if forward else 0.0) * along
+            if k:
+                bulge = self.heading if not forward else -self.heading
+                pieces.append((_u_turn(begin - step, begin, bulge), False))
+            pieces.append((_straight(begin, end), True))
+        return pieces
 
 
-def _settings(
-    name: str, speed: float, acceleration: float, contact_force: float | None, frame_rate: float
-) -> dict:
-    return {
-        "name": name,
-        "speed": speed,
-        "acceleration": acceleration,
-        "contact_force": contact_force,
-        "frame_rate": frame_rate,
-    }
+PATTERNS: dict[str, type[SweepPattern]] = {
+    pattern.name: pattern
+    for pattern in (LinearPattern, FanPattern, MultipassPattern, RasterPattern)
+}
+"""Every pattern by its name, as `resus plan --pattern` and the trajectory files call it."""
+
+
+def linear_sweep(phantom: Phantom, phantom_to_base: np.ndarray, **parameters) -> Trajectory:
+    """`LinearPattern(**parameters)` over `phantom`."""
+    return LinearPattern(**parameters).trajectory(phantom, phantom_to_base)
+
+
+def fan_sweep(phantom: Phantom, phantom_to_base: np.ndarray, **parameters) -> Trajectory:
+    """`FanPattern(**parameters)` over `phantom`."""
+    return FanPattern(**parameters).trajectory(phantom, phantom_to_base)
+
+
+def multipass_sweep(phantom: Phantom, phantom_to_base: np.ndarray, **parameters) -> Trajectory:
+    """`MultipassPattern(**parameters)` over `phantom`."""
+    return MultipassPattern(**parameters).trajectory(phantom, phantom_to_base)
+
+
+def raster_sweep(phantom: Phantom, phantom_to_base: np.ndarray, **parameters) -> Trajectory:
+    """`RasterPattern(**parameters)` over `phantom`."""
+    return RasterPattern(**parameters).trajectory(phantom, phantom_to_base)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from dataclasses import dataclass
 from pathlib import Path
 
 from resus.acquisition.backends.simulated import (
@@ -12,7 +11,7 @@ from resus.acquisition.backends.simulated import (
     SimulatedProbeConfig,
     SimulatedRobot,
 )
-from resus.acquisition.patterns import linear_sweep
+from resus.acquisition.patterns import LinearPattern, SweepPattern
 from resus.acquisition.scanner import Scanner, ScannerSettings, ScanResult
 from resus.acquisition.trajectory import Trajectory
 from resus.errors import simulator_errors
@@ -38,32 +37,23 @@ def phantom_spec(scene: SceneConfig, seed: int | None = None) -> PhantomSpec:
         return load_scene_phantom(scene, seed)
 
 
-@dataclass(frozen=True)
-class LinearSweepParameters:
-    """The built-in `linear` trajectory, in the phantom frame (see `linear_sweep`)."""
-
-    start: tuple[float, float] = (0.0, -0.04)
-    direction: tuple[float, float] = (0.0, 1.0)
-    length: float = 0.08
-    speed: float = 0.01
-    contact_force: float | None = 4.0
-    frame_rate: float = 30.0
-    tilt_deg: float = 0.0
+LinearSweepParameters = LinearPattern  # until its callers move to LinearPattern
 
 
 def simulate_sweep(
     out: str | Path,
     scene: SceneConfig,
-    trajectory: Trajectory | LinearSweepParameters,
+    trajectory: Trajectory | SweepPattern,
     *,
     seed: int | None = None,
     probe: SimulatedProbeConfig | None = None,
     progress: bool = True,
 ) -> ScanResult:
-    """Scan the scene's phantom with the simulated UR3e and write a labelled Sweep to `out`."""
+    """Scan the scene's phantom with the simulated UR3e along `trajectory` (or a pattern made
+    over the phantom) and write a labelled Sweep to `out`."""
     phantom = Phantom(phantom_spec(scene, seed))
-    if isinstance(trajectory, LinearSweepParameters):
-        trajectory = linear_sweep(phantom, scene.phantom_to_base, **dataclasses.asdict(trajectory))
+    if isinstance(trajectory, SweepPattern):
+        trajectory = trajectory.trajectory(phantom, scene.phantom_to_base)
     robot = SimulatedRobot(scene)
     probe_config = probe or SimulatedProbeConfig(frame_rate=trajectory.frame_rate)
     probe_source = SimulatedProbe(robot, probe_config, phantom)

@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from resus.acquisition.patterns import fan_sweep, linear_sweep, multipass_sweep, raster_sweep
+from resus.acquisition.patterns import (
+    LinearPattern,
+    fan_sweep,
+    linear_sweep,
+    multipass_sweep,
+    raster_sweep,
+)
 from resus.acquisition.simulation import phantom_spec, resolve_scene
 from resus.acquisition.trajectory import Trajectory
 from resus.errors import ResusError
@@ -85,12 +91,16 @@ def test_imaging_segments_survive_the_yaml_file(tmp_path, scene) -> None:
 
 def test_bad_pattern_input_is_a_clear_error(scene) -> None:
     config, phantom = scene
-    with pytest.raises(ResusError, match="--passes"):
+    with pytest.raises(ResusError, match=r"RasterPattern\.passes must be at least 1, got 0"):
         raster_sweep(phantom, config.phantom_to_base, passes=0)
-    with pytest.raises(ResusError, match="--offset"):
+    with pytest.raises(ResusError, match=r"MultipassPattern\.offset must be a non-zero"):
         multipass_sweep(phantom, config.phantom_to_base, offset=0.0)
-    with pytest.raises(ResusError, match="--fan-angle"):
+    with pytest.raises(ResusError, match=r"FanPattern\.fan_deg must lie in \(0, 180\)"):
         fan_sweep(phantom, config.phantom_to_base, fan_deg=200)
+    with pytest.raises(ResusError, match=r"LinearPattern\.speed must be positive, got -1"):
+        LinearPattern(speed=-1)
+    with pytest.raises(ResusError, match=r"LinearPattern\.length must be positive, got 0"):
+        LinearPattern(length=0)
     with pytest.raises(ResusError, match="leaves the phantom's skin"):
         linear_sweep(phantom, config.phantom_to_base, start=(0.0, 0.05), length=0.2)
     trajectory = linear_sweep(phantom, config.phantom_to_base)
