@@ -149,7 +149,7 @@ def _shift_advice(
     )
     start = trajectory.pattern.get("start")
     if start is not None:
-        advice += f" (--start {start[0] + shift[0]:.3f},{start[1] + shift[1]:.3f})"
+        advice += f" (start {start[0] + shift[0]:.3f},{start[1] + shift[1]:.3f})"
     return advice
 
 

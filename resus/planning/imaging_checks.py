@@ -48,7 +48,8 @@ def check_safety(trajectory: Trajectory, samples: PathSamples, limits: SafetyLim
         False,
         "; ".join(reasons),
         place,
-        f"keep --speed <= {limits.max_speed} m/s, --force <= {limits.max_force} N and the path "
+        f"keep the speed <= {limits.max_speed} m/s, the contact force <= {limits.max_force} N "
+        "and the path "
         "inside the workspace box",
     )
 
@@ -63,7 +64,11 @@ def check_contact_force(trajectory: Trajectory, limits: SafetyLimits) -> CheckRe
         return CheckResult("contact force", True, summary)
     target = MIN_CONTACT_FORCE if force < MIN_CONTACT_FORCE else limits.max_force
     return CheckResult(
-        "contact force", False, summary, place_at(trajectory, 0.0), f"set --force {target:.0f}"
+        "contact force",
+        False,
+        summary,
+        place_at(trajectory, 0.0),
+        f"set the contact force to {target:.0f} N",
     )
 
 

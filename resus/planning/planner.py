@@ -32,7 +32,7 @@ class PlanSettings:
 
     def __post_init__(self) -> None:
         if not self.voxel_size > 0:
-            raise ResusError(f"--voxel-size must be positive, got {self.voxel_size}")
+            raise ResusError(f"PlanSettings.voxel_size must be positive, got {self.voxel_size}")
 
 
 @dataclass(frozen=True)

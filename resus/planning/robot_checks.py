@@ -142,7 +142,7 @@ def _move_words(trajectory: Trajectory, shift: np.ndarray, words: str) -> str:
     start = trajectory.pattern.get("start")
     if start is not None:
         new = np.asarray(start, dtype=np.float64) + shift
-        text += f" (--start {new[0]:.3f},{new[1]:.3f})"
+        text += f" (start {new[0]:.3f},{new[1]:.3f})"
     return text
 
 
@@ -251,7 +251,7 @@ def check_torques(trajectory: Trajectory, samples: PathSamples, motion: RobotMot
         False,
         summary,
         place_at(trajectory, samples.times[worst[0]]),
-        "lower --acceleration, --speed or --force, or move the path nearer the robot base",
+        "lower the acceleration, speed or contact force, or move the path nearer the robot base",
     )
 
 
@@ -280,7 +280,7 @@ def check_singularity(
     if not len(low):
         return CheckResult("singularity", True, summary)
     if kind == "wrist":
-        advice = "turn the probe (--direction or --tilt) so wrist 2 stays away from 0 deg"
+        advice = "turn the probe (its direction or tilt) so wrist 2 stays away from 0 deg"
     else:
 
         def acceptable(path: JointPath) -> bool:
@@ -359,5 +359,5 @@ def _collision_failure(trajectory, time, model, pair) -> CheckResult:
         False,
         f"{names} collide",
         place_at(trajectory, time),
-        "change --direction or --tilt, or move the path so the arm clears the table and phantom",
+        "change the direction or tilt, or move the path so the arm clears the table and phantom",
     )

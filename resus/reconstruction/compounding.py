@@ -59,18 +59,24 @@ class ReconstructionSettings:
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
-            raise ResusError(f"--method must be one of {', '.join(METHODS)}, got {self.method!r}")
+            raise ResusError(
+                f"ReconstructionSettings.method must be one of {', '.join(METHODS)}, "
+                f"got {self.method!r}"
+            )
         if self.compounding not in COMPOUNDINGS:
             raise ResusError(
-                f"--compounding must be one of {', '.join(COMPOUNDINGS)}, got {self.compounding!r}"
+                f"ReconstructionSettings.compounding must be one of {', '.join(COMPOUNDINGS)}, "
+                f"got {self.compounding!r}"
             )
         for name in ("radius", "alpha", "fill_radius_step", "fill_alpha"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise ResusError(
-                    f"--{name.replace('_', '-')} must be positive, got {getattr(self, name)}"
+                    f"ReconstructionSettings.{name} must be positive, got {getattr(self, name)}"
                 )
         if self.fill_passes < 0:
-            raise ResusError(f"--fill-passes must be >= 0, got {self.fill_passes}")
+            raise ResusError(
+                f"ReconstructionSettings.fill_passes must be >= 0, got {self.fill_passes}"
+            )
 
 
 @dataclass

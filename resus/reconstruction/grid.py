@@ -157,7 +157,7 @@ def aabb_grid(
     volumes for the spine-phantom sweep have exactly these counts).
     """
     if not spacing > 0:
-        raise ResusError(f"--spacing must be positive, got {spacing}")
+        raise ResusError(f"aabb_grid spacing must be positive, got {spacing}")
     if bounds is None:
         if poses is None or image_to_probe is None or frame_shape is None:
             raise ResusError("aabb_grid needs either bounds or poses, image_to_probe, frame_shape")

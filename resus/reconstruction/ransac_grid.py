@@ -169,7 +169,7 @@ def ransac_grid(
     edges = np.array([x_edge, y_edge, z_edge])
     if shape is None:
         if not spacing > 0:
-            raise ResusError(f"--spacing must be positive, got {spacing}")
+            raise ResusError(f"ransac_grid spacing must be positive, got {spacing}")
         shape = tuple(
             int(np.ceil(length / spacing)) + 1 for length in np.linalg.norm(edges, axis=1)
         )

@@ -151,9 +151,9 @@ def open_recording(
     """A recording going to an `.rrd` file (`save`), a live viewer (`live`: "serve" or
     "spawn"), or both, with `blueprint` as its default layout."""
     if save is None and live is None:
-        raise ResusError("nowhere to send the recording: give --rerun-save FILE or --rerun serve")
+        raise ResusError("nowhere to send the recording: give a file to save or a live viewer")
     if live is not None and live not in LIVE_MODES:
-        raise ResusError(f"--rerun must be one of {', '.join(LIVE_MODES)}, got {live!r}")
+        raise ResusError(f"the live viewer must be one of {', '.join(LIVE_MODES)}, got {live!r}")
     save_path = None if save is None else Path(save)
     if save_path is not None and save_path.suffix != ".rrd":
         raise ResusError("rerun recordings must end in .rrd", save_path)
@@ -165,7 +165,9 @@ def open_recording(
         sinks.append(rr.GrpcSink(server.grpc_url))
     elif live == "spawn":
         if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-            raise ResusError("--rerun spawn needs a display; use --rerun serve or --rerun-save")
+            raise ResusError(
+                "a spawned viewer needs a display; serve a web viewer or save to a file"
+            )
         stream.spawn(port=grpc_port, connect=False)
         sinks.append(rr.GrpcSink(grpc_url(grpc_port)))
     if save_path is not None:

@@ -64,7 +64,7 @@ def check_dense_grid(grid: VolumeGrid) -> None:
     ):
         raise ResusError(
             "a dense rerun volume needs an orthogonal, right-handed voxel grid "
-            "(reconstruct with --grid aabb)"
+            "(an axis-aligned box grid)"
         )
 
 

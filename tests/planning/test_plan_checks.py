@@ -117,7 +117,7 @@ def test_sweep_beside_the_vessels_fails_coverage_and_the_advice_fixes_it(default
     assert coverage.place.time == 0.0 and coverage.place.until == pytest.approx(
         missed.duration, abs=0.04
     )
-    advised = coverage.advice.split("--start ")[1].rstrip(")").split(",")
+    advised = coverage.advice.split("(start ")[1].rstrip(")").split(",")
     moved = linear_sweep(phantom, scene.phantom_to_base, start=tuple(float(v) for v in advised))
     assert check_plan(moved, scene, phantom).check("coverage").passed
 

@@ -144,7 +144,7 @@ def test_a_sweep_without_joints_or_wrench_logs_no_robot_or_series(tmp_path):
 
 
 def test_recording_needs_somewhere_to_go_and_an_rrd_name(tmp_path):
-    with pytest.raises(ResusError, match="--rerun-save"):
+    with pytest.raises(ResusError, match="nowhere to send the recording"):
         open_recording("test")
     with pytest.raises(ResusError, match=r"\.rrd"):
         open_recording("test", save=tmp_path / "out.h5")

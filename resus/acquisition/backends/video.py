@@ -46,9 +46,11 @@ class VideoProbeConfig:
 
     def __post_init__(self) -> None:
         if self.crop is not None:
-            object.__setattr__(self, "crop", parse_crop(self.crop, "--crop"))
+            object.__setattr__(self, "crop", parse_crop(self.crop, "VideoProbeConfig.crop"))
         if self.buffer_frames < 1:
-            raise ResusError(f"buffer_frames must be at least 1, got {self.buffer_frames}")
+            raise ResusError(
+                f"VideoProbeConfig.buffer_frames must be at least 1, got {self.buffer_frames}"
+            )
 
 
 def to_grey(image: np.ndarray) -> np.ndarray:
