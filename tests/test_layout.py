@@ -1,0 +1,42 @@
+"""The package layout the project promises: stage packages with their API, a small top level,
+and `sim` a leaf that never imports `resus`."""
+
+import ast
+import importlib
+from pathlib import Path
+
+import pytest
+
+REPOSITORY = Path(__file__).resolve().parents[1]
+STAGES = (
+    "sweep", "acquisition", "acquisition.backends", "acquisition.calibration", "planning",
+    "reconstruction", "reslicing", "segmentation", "vessels", "experiments", "visualize", "cli",
+)  # fmt: skip
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_every_stage_package_exports_what_it_names(stage: str) -> None:
+    package = importlib.import_module(f"resus.{stage}")
+    assert package.__doc__, f"resus.{stage} has no docstring"
+    names = getattr(package, "__all__", ())
+    assert names, f"resus.{stage} exports nothing"
+    for name in names:
+        assert getattr(package, name) is not None
+
+
+def test_resus_keeps_at_most_six_top_level_modules() -> None:
+    modules = sorted(path.name for path in (REPOSITORY / "resus").glob("*.py"))
+    assert len(modules) <= 6, modules
+
+
+def test_sim_never_imports_resus() -> None:
+    offenders = []
+    for path in (REPOSITORY / "sim").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module]
+            offenders += [f"{path}: {n}" for n in names if n.split(".")[0] == "resus"]
+    assert not offenders, offenders
