@@ -11,18 +11,24 @@ from importlib.metadata import version
 __version__ = version("resus-testbed")
 
 
-def lazy_exports(package: str, exports: dict[str, str]):
-    """`__getattr__` and `__dir__` for a stage package whose `__init__` names its API
-    (`exports`: name -> defining module) but imports each module on first use (PEP 562), so
-    `import resus.sweep.model` does not pull in matplotlib or SimpleITK behind it."""
+def lazy_exports(package: str, api: str):
+    """A stage package's `__getattr__`, `__dir__` and `__all__` from its `api` table, one
+    line per module (`module: Name other_name ...`), each module imported on first use
+    (PEP 562), so that importing one small module of a stage does not import all of it."""
     import importlib
 
+    owners = {
+        name: f"{package}.{module.strip()}"
+        for module, names in (line.split(":") for line in api.strip().splitlines())
+        for name in names.split()
+    }
+
     def __getattr__(name: str) -> object:  # noqa: N807 - the module hook's name
-        if name not in exports:
+        if name not in owners:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
-        return getattr(importlib.import_module(exports[name]), name)
+        return getattr(importlib.import_module(owners[name]), name)
 
     def __dir__() -> list[str]:  # noqa: N807
-        return sorted(exports)
+        return sorted(owners)
 
-    return __getattr__, __dir__
+    return __getattr__, __dir__, sorted(owners)

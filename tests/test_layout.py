@@ -3,6 +3,7 @@ and `sim` a leaf that never imports `resus`."""
 
 import ast
 import importlib
+import inspect
 from pathlib import Path
 
 import pytest
@@ -18,7 +19,11 @@ STAGES = (
 def test_every_stage_package_exports_what_it_names(stage: str) -> None:
     package = importlib.import_module(f"resus.{stage}")
     assert package.__doc__, f"resus.{stage} has no docstring"
-    names = getattr(package, "__all__", ())
+    names = getattr(package, "__all__", None) or [
+        name
+        for name, value in vars(package).items()
+        if not name.startswith("_") and not inspect.ismodule(value)
+    ]
     assert names, f"resus.{stage} exports nothing"
     for name in names:
         assert getattr(package, name) is not None

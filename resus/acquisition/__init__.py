@@ -16,26 +16,16 @@ before every command, whatever the backend.
 
 from resus import lazy_exports
 
-_EXPORTS = {
-    "Robot": "resus.acquisition.robot",
-    "RobotFault": "resus.acquisition.robot",
-    "Frame": "resus.acquisition.probe",
-    "Probe": "resus.acquisition.probe",
-    "SafetyLimits": "resus.acquisition.safety",
-    "Scanner": "resus.acquisition.scanner",
-    "ScannerSettings": "resus.acquisition.scanner",
-    "ScanResult": "resus.acquisition.scanner",
-    "Trajectory": "resus.acquisition.trajectory",
-    "SweepPattern": "resus.acquisition.patterns",
-    "LinearPattern": "resus.acquisition.patterns",
-    "FanPattern": "resus.acquisition.patterns",
-    "MultipassPattern": "resus.acquisition.patterns",
-    "RasterPattern": "resus.acquisition.patterns",
-    "PATTERNS": "resus.acquisition.patterns",
-    "make_robot": "resus.acquisition.factory",
-    "make_probe": "resus.acquisition.factory",
-    "resolve_scene": "resus.acquisition.simulation",
-    "simulate_sweep": "resus.acquisition.simulation",
-}
-__all__ = sorted(_EXPORTS)
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    """
+factory: make_probe make_robot
+patterns: PATTERNS FanPattern LinearPattern MultipassPattern RasterPattern SweepPattern
+probe: Frame Probe
+robot: Robot RobotFault
+safety: SafetyLimits
+scanner: Scanner ScannerSettings ScanResult
+simulation: resolve_scene simulate_sweep
+trajectory: Trajectory
+""",
+)

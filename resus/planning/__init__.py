@@ -17,12 +17,11 @@ FAIL, where on the path it fails (time, arc length, waypoint) and what to change
 
 from resus import lazy_exports
 
-_EXPORTS = {
-    "PlanSettings": "resus.planning.planner",
-    "PlanAnalysis": "resus.planning.planner",
-    "check_plan": "resus.planning.planner",
-    "CheckResult": "resus.planning.checks",
-    "write_report": "resus.planning.report",
-}
-__all__ = sorted(_EXPORTS)
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    """
+checks: CheckResult
+planner: PlanAnalysis PlanSettings check_plan
+report: write_report
+""",
+)

@@ -11,21 +11,13 @@
 
 from resus import lazy_exports
 
-_EXPORTS = {
-    "VolumeGrid": "resus.reconstruction.grid",
-    "aabb_grid": "resus.reconstruction.grid",
-    "frame_points_world": "resus.reconstruction.grid",
-    "ransac_grid": "resus.reconstruction.ransac_grid",
-    "ReconstructionSettings": "resus.reconstruction.compounding",
-    "ReconstructedVolume": "resus.reconstruction.compounding",
-    "Reconstructor": "resus.reconstruction.compounding",
-    "reconstruct": "resus.reconstruction.compounding",
-    "LiveVolume": "resus.reconstruction.live",
-    "planned_grid": "resus.reconstruction.live",
-    "read_volume": "resus.reconstruction.io",
-    "write_volume": "resus.reconstruction.io",
-    "intensity_to_uint8": "resus.reconstruction.io",
-    "save_slices_png": "resus.reconstruction.io",
-}
-__all__ = sorted(_EXPORTS)
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    """
+compounding: ReconstructedVolume ReconstructionSettings Reconstructor reconstruct
+grid: VolumeGrid aabb_grid frame_points_world
+io: intensity_to_uint8 read_volume save_slices_png write_volume
+live: LiveVolume planned_grid
+ransac_grid: ransac_grid
+""",
+)

@@ -11,15 +11,12 @@
 
 from resus import lazy_exports
 
-_EXPORTS = {
-    "Reslice": "resus.reslicing.reslice",
-    "ResliceSettings": "resus.reslicing.reslice",
-    "reslice_volume": "resus.reslicing.reslice",
-    "ObliquePlane": "resus.reslicing.plane",
-    "reslice_plane": "resus.reslicing.plane",
-    "ResliceDataset": "resus.reslicing.dataset",
-    "ResliceWriter": "resus.reslicing.dataset",
-    "save_contact_sheet": "resus.reslicing.sheet",
-}
-__all__ = sorted(_EXPORTS)
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    """
+dataset: ResliceDataset ResliceWriter
+plane: ObliquePlane reslice_plane
+reslice: Reslice ResliceSettings reslice_volume
+sheet: save_contact_sheet
+""",
+)

@@ -9,22 +9,12 @@
 
 from resus import lazy_exports
 
-_EXPORTS = {
-    "Sweep": "resus.sweep.model",
-    "SweepError": "resus.sweep.model",
-    "SweepFrame": "resus.sweep.model",
-    "FrameSink": "resus.sweep.model",
-    "pixels_to_world": "resus.sweep.model",
-    "pixel_spacing": "resus.sweep.model",
-    "SweepWriter": "resus.sweep.io",
-    "SweepReader": "resus.sweep.io",
-    "read_sweep": "resus.sweep.io",
-    "write_sweep": "resus.sweep.io",
-    "import_plus_sequence": "resus.sweep.plus",
-    "export_plus_sequence": "resus.sweep.plus",
-    "read_plus_calibration": "resus.sweep.plus",
-    "write_plus_calibration": "resus.sweep.plus",
-    "save_contact_sheet": "resus.sweep.preview",
-}
-__all__ = sorted(_EXPORTS)
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    """
+io: SweepReader SweepWriter read_sweep write_sweep
+model: FrameSink Sweep SweepError SweepFrame pixel_spacing pixels_to_world
+plus: export_plus_sequence import_plus_sequence read_plus_calibration write_plus_calibration
+preview: save_contact_sheet
+""",
+)

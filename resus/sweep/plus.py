@@ -23,7 +23,6 @@ from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
-import SimpleITK as sitk
 
 from resus.sweep.io import error_summary, file_errors
 from resus.sweep.model import Sweep, SweepError, check_calibration
@@ -161,6 +160,8 @@ def _check_metaimage_file(path: Path) -> None:
 
 def _read_sequence(path: Path) -> tuple[np.ndarray, dict[str, str]]:
     """Frames (N, H, W) uint8 and the header fields of a MetaImage sequence."""
+    import SimpleITK as sitk  # imported here: `import resus.sweep` stays light
+
     if not path.is_file():
         raise SweepError("no such file", path)
     with file_errors(path, "reading the PLUS sequence"):
@@ -282,6 +283,8 @@ def export_plus_sequence(sweep: Sweep, path: str | Path) -> None:
     goes into the `ImageToProbeTransform` header field (`write_plus_calibration` writes it
     as a PLUS config XML). Labels, wrench and joint positions have no place in the format.
     """
+    import SimpleITK as sitk  # imported here: `import resus.sweep` stays light
+
     path = Path(path)
     if not re.search(r"\.mha$", path.name, re.IGNORECASE):
         raise SweepError("a PLUS sequence file name must end in .igs.mha (or .mha)", path)

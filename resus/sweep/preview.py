@@ -10,9 +10,6 @@ import math
 from pathlib import Path
 from typing import Protocol
 
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-
 from resus.indices import evenly_spaced
 from resus.sweep.io import file_errors
 from resus.sweep.model import SweepFrame
@@ -34,6 +31,9 @@ class FrameSource(Protocol):
 
 def save_contact_sheet(sweep: FrameSource, path: str | Path, count: int = 12) -> list[int]:
     """Draw `count` evenly chosen frames to the PNG `path`; returns the frame indices shown."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # `import resus.sweep` stays light
+    from matplotlib.figure import Figure
+
     path = Path(path)
     indices = evenly_spaced(len(sweep), count)
     first_time = sweep.frame(0).timestamp

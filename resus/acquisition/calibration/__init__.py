@@ -4,10 +4,10 @@
 
 from resus import lazy_exports
 
-_EXPORTS = {
-    "ProbeCalibration": "resus.acquisition.calibration.probe",
-    "TemporalCalibration": "resus.acquisition.calibration.temporal",
-    "calibrate_time": "resus.acquisition.calibration.temporal",
-}
-__all__ = sorted(_EXPORTS)
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    """
+probe: ProbeCalibration
+temporal: TemporalCalibration calibrate_time
+""",
+)
