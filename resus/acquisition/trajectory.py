@@ -188,9 +188,7 @@ class Trajectory:
     def from_yaml(cls, path: str | Path) -> Trajectory:
         """Read a trajectory file; any problem is a ResusError naming the file."""
         path = Path(path)
-        document = read_yaml(path, "trajectory")
-        if not isinstance(document, dict) or document.get("schema") != SCHEMA:
-            raise ResusError(f"not a trajectory file (expected schema {SCHEMA})", path)
+        document = read_yaml(path, "trajectory", SCHEMA)
         try:
             waypoints = pose_from_ur(np.asarray(document["waypoints"], dtype=np.float64))
             return cls(

@@ -80,9 +80,7 @@ class ProbeCalibration:
     def from_yaml(cls, path: str | Path) -> ProbeCalibration:
         """Read a calibration file; any problem is a one-line ResusError naming it."""
         path = Path(path)
-        document = read_yaml(path, "probe calibration")
-        if not isinstance(document, dict) or document.get("schema") != SCHEMA:
-            raise ResusError(f"not a probe calibration file (expected schema {SCHEMA})", path)
+        document = read_yaml(path, "probe calibration", SCHEMA)
         given = [key for key in SCALE_KEYS if document.get(key) is not None]
         if len(given) != 1:
             raise ResusError(f"give exactly one of {', '.join(SCALE_KEYS)}; got {given}", path)
