@@ -7,7 +7,13 @@ from resus.indices import evenly_spaced
 
 @pytest.mark.parametrize(
     ("total", "count", "expected"),
-    [(10, 4, [0, 3, 6, 9]), (5, 24, [0, 1, 2, 3, 4]), (7, 1, [0]), (0, 3, []), (100, 3, [0, 50, 99])],
+    [
+        (10, 4, [0, 3, 6, 9]),
+        (5, 24, [0, 1, 2, 3, 4]),
+        (7, 1, [0]),
+        (0, 3, []),
+        (100, 3, [0, 50, 99]),
+    ],
 )
 def test_known_answers(total: int, count: int, expected: list[int]) -> None:
     assert evenly_spaced(total, count) == expected

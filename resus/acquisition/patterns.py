@@ -90,7 +90,7 @@ def skin_poses(
     normals = phantom.skin_normal(x, y)
     return np.stack(
         [
-            phantom_to_base @ make_pose(probe_orientation(n, heading, tilt), [xi, yi, zi])
+            phantom_to_base @ make_pose(probe_orientation(n, heading, tilt), np.array([xi, yi, zi]))
             for xi, yi, zi, n, tilt in zip(x, y, z, normals, tilts, strict=True)
         ]
     )
@@ -249,7 +249,8 @@ class MultipassPattern(LinearPattern):
         return pieces
 
     def trajectory(self, phantom: Phantom, phantom_to_base: np.ndarray) -> Trajectory:
-        points, spans = [], []
+        points: list[np.ndarray] = []
+        spans = []
         for piece, imaging in self.pieces():
             first = len(points) - 1 if points else 0
             points.extend(piece[1:] if points else piece)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import re
 from pathlib import Path
+from typing import Any
 
 from resus.acquisition.backends.simulated import (
     SimulatedProbe,
@@ -24,7 +25,7 @@ SUBJECT_ID = re.compile(r"^(?P<phantom>[^/]+)/(?P<subject>nominal|\d+)$")
 
 def resolve_scene(scene: str | Path, phantom: str | None, subject: int | None) -> SceneConfig:
     """A scene by name (`assets/scenes/NAME.yaml`) or path, with phantom and subject set."""
-    changes: dict[str, object] = {"subject": subject} if subject is not None else {}
+    changes: dict[str, Any] = {"subject": subject} if subject is not None else {}
     if phantom is not None:
         changes["phantom"] = phantom
     with simulator_errors():

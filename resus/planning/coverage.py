@@ -111,8 +111,9 @@ def station_bins(frames: FrameSamples, probe: LinearProbe) -> np.ndarray:
     return bins
 
 
-def _station_coverage(bins: np.ndarray, seen: np.ndarray) -> np.ndarray:
-    """(B,) whether any frame in each occupied bin shows the class (unoccupied: True)."""
+def _station_coverage(bins: np.ndarray, seen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(B,) whether any frame in each occupied bin shows the class (unoccupied: True), and
+    (B,) whether each bin is occupied."""
     covered = np.ones(bins.max() + 1, dtype=bool)
     occupied = np.zeros_like(covered)
     np.logical_or.at(occupied, bins[bins >= 0], True)
@@ -163,7 +164,8 @@ def check_coverage(
     """Every target class is in view at MIN_COVERAGE of the stations along the sweep."""
     bins = station_bins(frames, probe)
     names = [LABEL_NAMES[label] for label in coverage.labels]
-    fractions, missing, run = [], {}, None
+    fractions, missing = [], {}
+    run: tuple[np.ndarray, int] | None = None
     for c in range(len(coverage.labels)):
         covered, occupied = _station_coverage(bins, coverage.seen[:, c])
         fractions.append(float(covered[occupied].mean()))
@@ -175,7 +177,7 @@ def check_coverage(
     summary = ", ".join(
         f"{n} at {f:.0%} of stations" for n, f in zip(names, fractions, strict=True)
     )
-    if not missing:
+    if run is None:  # no class is missing: run is set with the first missing one
         return CheckResult("coverage", True, summary)
     members, c = run
     segment = frames.segment[members[0]]

@@ -60,7 +60,7 @@ def _plot_top_view(analysis: PlanAnalysis, path: Path) -> None:
     for vessel in phantom.spec.vessels:
         nodes = phantom.centrelines()[vessel.name]
         axis.plot(nodes[:, 0], nodes[:, 1], color=label_colour_unit(vessel.label), linewidth=2)
-        axis.annotate(vessel.name, nodes[-1, :2], fontsize=7)
+        axis.annotate(vessel.name, (nodes[-1, 0], nodes[-1, 1]), fontsize=7)
     corners = to_phantom[None, :3, :3] @ frame_corners(
         analysis.frames, analysis.settings.probe
     ).transpose(0, 2, 1)

@@ -261,7 +261,7 @@ def singularity_kind(q: np.ndarray) -> str:
     wrist_centre = kinematics.frame_chain(q)[5][:3, 3]
     shoulder = (np.hypot(*wrist_centre[:2]) - abs(kinematics.DH_D[3])) / 0.1
     measures = {"wrist": abs(np.sin(q[4])), "elbow": abs(np.sin(q[2])), "shoulder": shoulder}
-    return min(measures, key=measures.get)
+    return min(measures, key=measures.__getitem__)
 
 
 def check_singularity(

@@ -132,14 +132,14 @@ def save_slices_png(
     path = Path(path)
     if path.suffix.lower() != ".png":
         raise ResusError("slice pictures must end in .png", path)
-    centre = centre or tuple(n // 2 for n in grid.shape)
+    centre = centre or (grid.shape[0] // 2, grid.shape[1] // 2, grid.shape[2] // 2)
     spacing = grid.spacing * MM
     views = [(2, 0, 1), (1, 0, 2), (0, 1, 2)]  # (fixed axis, horizontal, vertical)
     figure = Figure(figsize=(15, 5.4))
     panels = figure.subplots(1, 3)
     low, high = np.percentile(volume, [1, 99.5]) if volume.size else (0, 1)
     for panel, (fixed, across, down) in zip(panels, views, strict=True):
-        index = [slice(None)] * 3
+        index: list[slice | int] = [slice(None)] * 3
         index[fixed] = centre[fixed]
         image = volume[tuple(index)]  # indexed [across, down]
         extent = (0, grid.shape[across] * spacing[across], grid.shape[down] * spacing[down], 0)

@@ -168,11 +168,12 @@ def ransac_grid(
         x_edge, y_edge = axial_edge, lateral_edge
     edges = np.array([x_edge, y_edge, z_edge])
     if shape is None:
-        if not spacing > 0:
+        if spacing is None or not spacing > 0:  # None was refused above, with shape None
             raise ResusError(f"ransac_grid spacing must be positive, got {spacing}")
-        shape = tuple(
+        nx, ny, nz = (
             int(np.ceil(length / spacing)) + 1 for length in np.linalg.norm(edges, axis=1)
         )
+        shape = (nx, ny, nz)
     counts = np.array(shape, dtype=np.int64)
     if counts.shape != (3,) or np.any(counts < 2):
         raise ResusError(f"RANSAC grid voxel counts must be three integers >= 2, got {shape}")

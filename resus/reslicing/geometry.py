@@ -32,7 +32,7 @@ right-hand rotation by +angle about y is `scipy.ndimage.rotate(..., -angle, axes
 
 
 def scipy_rotation(
-    shape: tuple[int, ...], angle_deg: float, axes: tuple[int, int]
+    shape: tuple[int, int, int], angle_deg: float, axes: tuple[int, int]
 ) -> tuple[np.ndarray, np.ndarray, tuple[int, int, int]]:
     """`(matrix, offset, output_shape)` of `scipy.ndimage.rotate(array, angle_deg, axes,
     reshape=True)` on a 3D array: output index `o` samples the input at `matrix @ o + offset`."""
@@ -49,7 +49,7 @@ def scipy_rotation(
     offset[[first, second]] = plane_offset
     out_shape = list(shape)
     out_shape[first], out_shape[second] = (int(n) for n in out_plane_shape)
-    return matrix, offset, tuple(out_shape)
+    return matrix, offset, (out_shape[0], out_shape[1], out_shape[2])
 
 
 def rotation_affine(
@@ -93,9 +93,9 @@ def slice_window(
                 points.extend([out_corners[a], out_corners[b]])
     if not points:
         return None
-    points = np.array(points)
-    i0, j0 = np.maximum(np.floor(points[:, :2].min(axis=0)) - 1, 0).astype(int)
-    i1, j1 = np.minimum(np.ceil(points[:, :2].max(axis=0)) + 2, out_shape[:2]).astype(int)
+    cut = np.array(points)
+    i0, j0 = np.maximum(np.floor(cut[:, :2].min(axis=0)) - 1, 0).astype(int)
+    i1, j1 = np.minimum(np.ceil(cut[:, :2].max(axis=0)) + 2, out_shape[:2]).astype(int)
     if i0 >= i1 or j0 >= j1:
         return None
     return int(i0), int(i1), int(j0), int(j1)

@@ -112,23 +112,6 @@ class Reslice:
     """4x4: pixel `(col, row, 0, 1)` to world metres, pixel spacing included."""
 
 
-def parse_angles(text: str) -> tuple[float, ...]:
-    """`"start:stop:step"` (stop included, degrees) or a comma list, as `--angles` takes."""
-    try:
-        if ":" in text:
-            start, stop, step = (float(part) for part in text.split(":"))
-            if step <= 0 or stop < start:
-                raise ValueError
-            count = int(np.floor((stop - start) / step + 1e-9)) + 1
-            return tuple(float(a) for a in start + step * np.arange(count))
-        return tuple(float(part) for part in text.split(","))
-    except ValueError:
-        raise ResusError(
-            f"--angles must be start:stop:step with step > 0 and stop >= start, or a comma "
-            f"list of degrees; got {text!r}"
-        ) from None
-
-
 def finish_slice(
     grey: np.ndarray,
     label: np.ndarray,
@@ -198,6 +181,8 @@ def slices_by_sampling(
             continue
         origin = matrix @ np.array([i0, j0, k], dtype=float) + offset
         image, label = sampled.sample(origin, matrix[:, 0], matrix[:, 1], j1 - j0, i1 - i0)
+        if label is None:
+            raise ValueError("slices_by_sampling needs a SampledVolume built with labels")
         yield k, intensity_to_uint8(image), label, i0, j0
 
 

@@ -18,6 +18,7 @@ import struct
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
@@ -133,7 +134,7 @@ class SweepWriter:
             "wrench": with_wrench,
             "joint_positions": with_joints,
         }
-        layouts = {
+        layouts: dict[str, tuple[tuple[int, ...], type[np.generic], int, dict[str, Any]]] = {
             "frames": ((rows, cols), np.uint8, 1, {}),
             "labels": ((rows, cols), np.uint8, 1, LABEL_COMPRESSION),
             "probe_to_base": ((4, 4), np.float64, 256, {}),

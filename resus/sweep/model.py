@@ -166,7 +166,7 @@ def frame_corners(frame_shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]
 class SweepFrame(NamedTuple):
     """One frame of a sweep with everything recorded with it."""
 
-    index: int
+    index: int  # type: ignore[assignment]  # shadows tuple.index; `frame.index` is used everywhere
     image: np.ndarray
     probe_to_base: np.ndarray
     timestamp: float
@@ -218,7 +218,7 @@ class Sweep:
         if n == 0:
             raise SweepError("a sweep needs at least one frame")
         label_names = check_label_names(self.label_names)
-        checked = {
+        checked: dict[str, np.ndarray | tuple[str, ...] | str] = {
             "frames": frames,
             "probe_to_base": check_poses(self.probe_to_base),
             "timestamps": check_timestamps(self.timestamps),

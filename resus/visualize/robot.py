@@ -10,6 +10,7 @@ flange; `tests/test_rerun_robot.py` checks these poses against MuJoCo's own kine
 from __future__ import annotations
 
 from functools import cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 import rerun as rr
@@ -19,6 +20,9 @@ from sim.assets import assets_dir
 from resus.visualize.entities import ROBOT
 from resus.visualize.transforms import pose_columns
 from sim.robot.kinematics import frame_chain
+
+if TYPE_CHECKING:
+    import mujoco
 
 BODY_NAMES = (
     "base",
@@ -73,7 +77,7 @@ def ur3e_shapes() -> dict[str, dict[str, rr.AsComponents]]:
     }
 
 
-def _shapes(model: object, kind: str, geoms: list[int]) -> rr.AsComponents:
+def _shapes(model: mujoco.MjModel, kind: str, geoms: list[int]) -> rr.AsComponents:
     """One archetype holding the geoms `geoms` (all of one kind) in their body's frame."""
     size = model.geom_size[geoms]
     centre = model.geom_pos[geoms]

@@ -60,7 +60,7 @@ class SweepLogger:
             return None if value is None else np.asarray(value)[None]
 
         self.log_frames(
-            row(frame.image), row(frame.probe_to_base),
+            np.asarray(frame.image)[None], np.asarray(frame.probe_to_base)[None],
             np.array([frame.timestamp], dtype=np.float64),
             labels=row(frame.label), wrench=row(frame.wrench),
             joint_positions=row(frame.joint_positions), predictions=row(prediction),

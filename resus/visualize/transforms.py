@@ -16,7 +16,10 @@ def quaternions_xyzw(poses: np.ndarray) -> np.ndarray:
 
 def pose_transform(pose: np.ndarray) -> rr.Transform3D:
     """A `Transform3D` placing a child frame at `pose` (child to parent, rigid)."""
-    return rr.Transform3D(translation=pose[:3, 3], quaternion=quaternions_xyzw(pose))
+    return rr.Transform3D(
+        translation=pose[:3, 3],
+        quaternion=quaternions_xyzw(pose),  # type: ignore[arg-type]  # rerun takes xyzw arrays
+    )
 
 
 def pose_columns(poses: np.ndarray) -> rr.ComponentColumnList:

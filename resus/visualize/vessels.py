@@ -40,7 +40,7 @@ def log_vessel_map(stream: rr.RecordingStream, folder: Path, name: str) -> list[
     needle = json.loads((folder / "vessels.json").read_text())["needle"]
     if needle["safe"]:
         entity = f"{VESSEL_MAP}/{name}/needle"
-        path = np.array([needle["entry_mm"], needle["target_mm"]]) * MM
-        stream.log(entity, rr.LineStrips3D([path], colors=NEEDLE_COLOUR, radii=0.0004), static=True)
+        line = np.array([needle["entry_mm"], needle["target_mm"]]) * MM
+        stream.log(entity, rr.LineStrips3D([line], colors=NEEDLE_COLOUR, radii=0.0004), static=True)
         logged.append(entity)
     return logged

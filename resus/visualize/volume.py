@@ -77,7 +77,7 @@ def dense_volume(volume: np.ndarray, grid: VolumeGrid) -> rr.Volume3D:
         np.ascontiguousarray(volume.transpose(2, 1, 0)).astype(np.float16),
         voxel_size=grid.spacing,
         translation=grid.origin - 0.5 * grid.axes.sum(axis=0),
-        quaternion=quaternions_xyzw(pose),
+        quaternion=quaternions_xyzw(pose),  # type: ignore[arg-type]  # rerun takes xyzw arrays
         value_range=(0.0, 255.0),
     )
 

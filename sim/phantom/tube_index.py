@@ -53,7 +53,9 @@ class TubeIndex:
         arrays = tube_kernels.build_grid(packed, origin, float(cell_size), shape, float(cutoff))
         return cls(chain, packed, float(cutoff), float(cell_size), origin, shape, *arrays)
 
-    def grid_arguments(self) -> tuple:
+    def grid_arguments(
+        self,
+    ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The arrays the kernels take, in their order (segments first)."""
         return (
             self.packed,

@@ -243,9 +243,10 @@ class SimulatedUR3e:
         seed = self._q_ref
         steps = np.linalg.norm(path.translation) / 0.005 + np.linalg.norm(path.rotvec) / 0.02
         for u in np.linspace(0.0, 1.0, math.ceil(steps) + 2):
-            seed = self._inverse(path.pose_at_fraction(u), seed)
-            if seed is None:
+            joints = self._inverse(path.pose_at_fraction(u), seed)
+            if joints is None:
                 raise ValueError(f"move_linear: the path leaves the workspace at fraction {u:.2f}")
+            seed = joints
         self._motion = path
         if not asynchronous:
             self._run_motion()
@@ -302,7 +303,7 @@ class SimulatedUR3e:
         selection_vector: np.ndarray,
         wrench: np.ndarray,
         force_type: int = FORCE_MODE_TYPE_FIXED_FRAME,
-        limits: np.ndarray = (0.1, 0.1, 0.1, 0.1, 0.1, 0.1),
+        limits: np.ndarray | tuple[float, ...] = (0.1, 0.1, 0.1, 0.1, 0.1, 0.1),
     ) -> None:
         """forceMode: be compliant along the selected task-frame axes, pushing `wrench`.
 
@@ -345,7 +346,7 @@ class SimulatedUR3e:
         t = self.time()
         nominal, finished = self._nominal_reference(t)
         reference = nominal
-        if self._force_mode is not None and reference is not None:
+        if self._force_mode is not None and nominal is not None:
             if nominal.shape == (6,):
                 nominal = kinematics.forward_kinematics(nominal) @ self._flange_to_tcp
             reference = self._force_mode.reference_pose(nominal, self.tcp_wrench(), CONTROL_PERIOD)

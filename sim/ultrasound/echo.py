@@ -119,7 +119,7 @@ def scan_lines(
         reflect_im = np.zeros(rows, dtype=np.float32)
         if contact[col]:
             gain = np.float32(1.0)  # round-trip amplitude left after attenuation and interfaces
-            previous = -1  # effective material of the previous pixel (-1 before tissue)
+            previous: int | np.int64 = -1  # previous pixel's effective material (-1 before tissue)
             for row in range(rows):
                 n = col * rows + row
                 m = np.int64(material[n])
@@ -198,8 +198,8 @@ def form_image(
     (amplitude factors). Grey level = `grey_per_log2 * log2(envelope^2) + grey_offset`, clipped.
     """
     cols, rows = echo_real.shape
-    grey_per_log2 = np.float32(grey_per_log2)
-    grey_offset = np.float32(grey_offset)
+    grey_scale = np.float32(grey_per_log2)
+    grey_base = np.float32(grey_offset)
     taps = lateral.shape[0]
     half = taps // 2
     for col in numba.prange(cols):
@@ -225,7 +225,7 @@ def form_image(
             power[row] = re * re + im * im + _TINY_POWER
         log_power = fast_log2(power)
         for row in range(rows):
-            grey = grey_per_log2 * log_power[row] + grey_offset
+            grey = grey_scale * log_power[row] + grey_base
             grey = min(max(grey, np.float32(0.0)), np.float32(255.0))
             visible = material[first + row] >= 0
             image[col, row] = np.uint8(grey + np.float32(0.5)) if visible else 0

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import zlib
+from typing import overload
 
 import numpy as np
 
@@ -31,8 +32,16 @@ METRES_PER_CM = 0.01
 HZ_PER_MHZ = 1.0e6
 
 
-def db_to_amplitude(db: np.ndarray | float) -> np.ndarray | float:
-    """Amplitude ratio of a level in decibels."""
+@overload
+def db_to_amplitude(db: np.ndarray) -> np.ndarray: ...
+
+
+@overload
+def db_to_amplitude(db: float) -> np.float64: ...
+
+
+def db_to_amplitude(db: np.ndarray | float) -> np.ndarray | np.float64:
+    """Amplitude ratio of a level in decibels (a numpy scalar for a scalar level)."""
     return 10.0 ** (np.asarray(db) / 20.0)
 
 

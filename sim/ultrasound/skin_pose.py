@@ -24,10 +24,10 @@ def probe_pose_on_skin(
     +y for positive tilt). `lift` (m) raises the probe off the skin along the normal (negative
     presses it in).
     """
-    height = float(phantom.skin_height(np.float64(x), np.float64(y)))
+    height = float(phantom.skin_height(np.asarray(x, np.float64), np.asarray(y, np.float64)))
     if np.isnan(height):
         raise ValueError(f"({x}, {y}) lies outside the skin of phantom {phantom.spec.name!r}")
-    normal = phantom.skin_normal(np.float64(x), np.float64(y))
+    normal = phantom.skin_normal(np.asarray(x, np.float64), np.asarray(y, np.float64))
     beam = -normal
     across = np.array([1.0, 0.0, 0.0]) - beam[0] * beam
     across /= np.linalg.norm(across)

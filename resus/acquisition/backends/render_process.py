@@ -36,7 +36,8 @@ def _render_loop(spec: PhantomSpec, config: SimulatedProbeConfig, requests, resu
     the two that the servo loop and a local emulator need."""
     import numba
 
-    numba.set_num_threads(max(1, min(numba.config.NUMBA_NUM_THREADS, os.cpu_count() or 1) - 2))
+    threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at runtime
+    numba.set_num_threads(max(1, min(threads, os.cpu_count() or 1) - 2))
     simulator = UltrasoundSimulator(Phantom(spec), config.probe, config.settings)
     simulator.render(np.eye(4))  # the first frame loads the compiled kernels
     results.put("ready")

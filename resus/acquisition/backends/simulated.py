@@ -125,7 +125,11 @@ class SimulatedProbe(SyntheticProbe):
         another seed), with the same body."""
         self.robot = robot
         self.config = config or SimulatedProbeConfig()
-        self.scene = scene or robot.scene
+        if scene is None:
+            if not isinstance(robot, SimulatedRobot):
+                raise TypeError("SimulatedProbe needs a scene unless its robot is a SimulatedRobot")
+            scene = robot.scene
+        self.scene = scene
         self.phantom = phantom or Phantom(load_scene_phantom(self.scene))
         self._base_to_phantom = invert_pose(self.scene.phantom_to_base)
         self.simulator = UltrasoundSimulator(self.phantom, self.config.probe, self.config.settings)

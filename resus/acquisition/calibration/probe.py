@@ -16,6 +16,7 @@ transducer face (the TCP), the middle column on the probe axis, columns along th
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,7 +35,9 @@ SCALE_KEYS = ("pixel_spacing", "pixel_spacing_mm", "image_to_probe", "image_to_p
 def parse_crop(values: object, name: str = "crop") -> tuple[int, int, int, int]:
     """(x, y, width, height) in pixels from four non-negative integers (width, height > 0)."""
     try:
-        x, y, width, height = (int(v) for v in values)  # type: ignore[union-attr]
+        if not isinstance(values, Iterable):
+            raise TypeError
+        x, y, width, height = (int(v) for v in values)
     except (TypeError, ValueError):
         raise ResusError(
             f"{name}: expected four integers x, y, width, height, got {values!r}"

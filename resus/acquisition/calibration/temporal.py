@@ -101,19 +101,6 @@ def motion_direction(displacements: np.ndarray, image_to_probe: np.ndarray) -> n
     return plane @ axes[0]
 
 
-def parse_range(text: str) -> tuple[float, float]:
-    """'-0.5:0.5' -> (-0.5, 0.5)."""
-    try:
-        low, high = (float(v) for v in text.split(":"))
-    except ValueError:
-        raise ResusError(
-            f"--range: expected LOW:HIGH seconds, e.g. -0.5:0.5, got {text!r}"
-        ) from None
-    if not (np.isfinite(low) and np.isfinite(high) and low < high):
-        raise ResusError(f"--range: expected LOW < HIGH, got {text!r}")
-    return low, high
-
-
 def _correlation(a: np.ndarray, b: np.ndarray) -> float:
     a, b = a - a.mean(), b - b.mean()
     norm = np.sqrt((a @ a) * (b @ b))
@@ -208,12 +195,10 @@ def oscillation(
 
 def save_plot(result: TemporalCalibration, path: str | Path) -> None:
     """PNG: the two signals before and after alignment, and the score over the offsets."""
-    import matplotlib
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    figure, (signals, scores) = plt.subplots(1, 2, figsize=(11, 3.6))
+    figure = Figure(figsize=(11, 3.6))
+    signals, scores = figure.subplots(1, 2)
     t = result.times - result.times[0]
     signals.plot(t, 1e3 * result.image_signal, label="images", color="black")
     signals.plot(
@@ -233,4 +218,3 @@ def save_plot(result: TemporalCalibration, path: str | Path) -> None:
     scores.set(xlabel="time offset (s)", ylabel="correlation", title="agreement")
     figure.tight_layout()
     figure.savefig(path, dpi=120)
-    plt.close(figure)
