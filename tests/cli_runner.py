@@ -1,4 +1,8 @@
-"""Running the `resus` console script in a fresh interpreter, as a user would, for CLI tests."""
+"""Running `resus` in a fresh interpreter, as a user would, for CLI tests.
+
+`python -m resus` runs the console script's entry point (`resus.cli.app:main`) without
+depending on where the script was installed.
+"""
 
 from __future__ import annotations
 
@@ -8,5 +12,5 @@ import sys
 
 def resus(*args: object, timeout: float = 300) -> subprocess.CompletedProcess:
     """Run `resus ARGS...` and return its exit code, stdout and stderr."""
-    command = [sys.executable, "-c", "from resus.cli.app import main; main()", *map(str, args)]
+    command = [sys.executable, "-m", "resus", *map(str, args)]
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout)

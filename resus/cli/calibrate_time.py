@@ -14,7 +14,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from resus.cli.simulate import parse_pair
+from resus.cli.parsers import parse_numbers, parse_range
 from resus.errors import ResusError
 
 
@@ -29,10 +29,10 @@ def calibrate_time_command(
     plot: Annotated[Path | None, typer.Option(help="Save the signals and scores as a PNG.")] = None,
 ) -> None:
     """Estimate the image-vs-pose time offset of a calibration sweep (PLUS-style)."""
-    from resus.acquisition.calibration.temporal import calibrate_time, parse_range, save_plot
+    from resus.acquisition.calibration.temporal import calibrate_time, save_plot
     from resus.sweep.io import read_sweep
 
-    low, high = parse_range(search)
+    low, high = parse_range(search, "--range")
     if not step > 0:
         raise ResusError(f"--step must be positive, got {step}")
     result = calibrate_time(read_sweep(sweep_path), (low, high), step)
@@ -66,10 +66,10 @@ def calibration_plan(
         raise ResusError("output folder does not exist", out.parent)
     scene_config = resolve_scene(scene, phantom, None)
     model = Phantom(phantom_spec(scene_config))
-    x, y = parse_pair(direction, "--direction")
+    x, y = parse_numbers(direction, "--direction", count=2)
     # the array lies along `direction`: the pattern heading is `direction` turned +90 deg about z
     heading = sweep_heading((-y, x))
-    centre_xy = np.array([parse_pair(start, "--start")])
+    centre_xy = np.array([parse_numbers(start, "--start", count=2)])
     centre = skin_poses(model, scene_config.phantom_to_base, centre_xy, heading, np.zeros(1))[0]
     trajectory = oscillation(
         centre, amplitude=amplitude, cycles=cycles, speed=speed,

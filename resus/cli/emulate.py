@@ -6,6 +6,7 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.parsers import flag_error, parse_choice
 from resus.errors import ResusError
 
 
@@ -40,12 +41,9 @@ def register(app: typer.Typer) -> None:
         from sim.rtde.app import ARMS, serve
         from sim.rtde.faults import FaultPlan
 
-        if arm not in ARMS:
-            raise ResusError(f"--arm must be one of {', '.join(ARMS)}, got {arm!r}")
-        try:
+        parse_choice(arm, "--arm", ARMS)
+        with flag_error("--fault"):
             faults = FaultPlan.parse(fault or [], seed=seed)
-        except ValueError as error:
-            raise ResusError(str(error)) from None
         logging.basicConfig(
             level=logging.INFO, stream=sys.stderr, format="rtde-emulator %(levelname)s: %(message)s"
         )

@@ -11,7 +11,7 @@ from typing import Annotated
 
 import typer
 
-from resus.cli.simulate import parse_pair
+from resus.cli.parsers import parse_choice, parse_numbers, settings_from_flags
 from resus.errors import ResusError
 
 PATTERNS = ("linear", "fan", "multipass", "raster")
@@ -69,11 +69,9 @@ def plan(
     ] = False,
 ) -> None:
     """Plan a scan, check it (IK, limits, singularities, collisions, spacing, coverage, holes)."""
-    if pattern not in PATTERNS:
-        raise ResusError(f"--pattern must be one of {', '.join(PATTERNS)}, got {pattern!r}")
-    for name, value in (("--passes", passes),):
-        if value < 1:
-            raise ResusError(f"{name} must be at least 1, got {value}")
+    parse_choice(pattern, "--pattern", PATTERNS)
+    if passes < 1:
+        raise ResusError(f"--passes must be at least 1, got {passes}")
     if not out.parent.is_dir():
         raise ResusError("output folder does not exist", out.parent)
     if force < 0:
@@ -84,12 +82,12 @@ def plan(
     from resus.planning.planner import PlanSettings, check_plan
     from sim.phantom import Phantom
 
-    settings = PlanSettings(voxel_size=voxel_size)
+    settings = settings_from_flags(PlanSettings, voxel_size=("--voxel-size", voxel_size))
     scene_config = resolve_scene(scene, phantom, subject)
     phantom_model = Phantom(phantom_spec(scene_config))
     options = {
-        "start": parse_pair(start, "--start"),
-        "direction": parse_pair(direction, "--direction"),
+        "start": parse_numbers(start, "--start", count=2),
+        "direction": parse_numbers(direction, "--direction", count=2),
         "length": length,
         "speed": speed,
         "acceleration": acceleration,

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import typer
 
+from resus.cli.parsers import parse_choice, parse_numbers, settings_from_flags
 from resus.errors import ResusError
 
 GRIDS = ("ransac", "aabb")
@@ -24,18 +25,6 @@ def _load_sweep(path: Path, calibration: Path | None):
     from resus.sweep.io import read_sweep
 
     return read_sweep(path)
-
-
-def _parse_voxels(text: str | None) -> tuple[int, int, int] | None:
-    if text is None:
-        return None
-    try:
-        counts = tuple(int(part) for part in text.split(","))
-    except ValueError:
-        counts = ()
-    if len(counts) != 3:
-        raise ResusError(f"--voxels must be three integers NX,NY,NZ, got {text!r}")
-    return counts
 
 
 def register(app: typer.Typer) -> None:
@@ -86,14 +75,15 @@ def register(app: typer.Typer) -> None:
         from resus.reconstruction.io import intensity_to_uint8, save_slices_png, write_volume
         from resus.reconstruction.ransac_grid import ransac_grid
 
-        if grid_kind not in GRIDS:
-            raise ResusError(f"--grid must be ransac or aabb, got {grid_kind!r}")
-        settings = ReconstructionSettings(
-            method=method,
-            compounding=compounding,
-            radius=radius,
-            alpha=alpha,
-            fill_passes=fill_passes,
+        parse_choice(grid_kind, "--grid", GRIDS)
+        shape = None if voxels is None else parse_numbers(voxels, "--voxels", count=3, kind=int)
+        settings = settings_from_flags(
+            ReconstructionSettings,
+            method=("--method", method),
+            compounding=("--compounding", compounding),
+            radius=("--radius", radius),
+            alpha=("--alpha", alpha),
+            fill_passes=("--fill-passes", fill_passes),
         )
         for path in (out, labels_out, png):
             if path is not None and not path.parent.is_dir():
@@ -108,7 +98,6 @@ def register(app: typer.Typer) -> None:
                 spacing, poses=poses, image_to_probe=sweep.image_to_probe, frame_shape=frame_shape
             )
         else:
-            shape = _parse_voxels(voxels)
             grid = ransac_grid(
                 poses, sweep.image_to_probe, frame_shape, shape,
                 spacing=None if shape else spacing, seed=seed,

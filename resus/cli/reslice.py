@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.parsers import parse_angles, settings_from_flags
 from resus.errors import ResusError
 
 SHEET_RESLICES = 24
@@ -55,20 +56,16 @@ def register(app: typer.Typer) -> None:
 
         from resus.reconstruction.io import read_volume
         from resus.reslicing.dataset import DEFAULT_LABEL_NAMES, ResliceDataset, ResliceWriter
-        from resus.reslicing.reslice import (
-            ResliceSettings,
-            check_volume,
-            parse_angles,
-            reslice_volume,
-        )
+        from resus.reslicing.reslice import ResliceSettings, check_volume, reslice_volume
         from resus.reslicing.sheet import evenly_spaced, save_contact_sheet
 
-        settings = ResliceSettings(
-            angles_deg=parse_angles(angles),
-            step=step,
-            min_nonzero=min_nonzero,
-            size=size,
-            method=method,
+        settings = settings_from_flags(
+            ResliceSettings,
+            angles_deg=("--angles", parse_angles(angles, "--angles")),
+            step=("--step", step),
+            min_nonzero=("--min-nonzero", min_nonzero),
+            size=("--size", size),
+            method=("--method", method),
         )
         volume, grid, _ = read_volume(volume_path)
         labels, label_grid, label_names = read_volume(labels_path)

@@ -16,34 +16,40 @@ import contextlib
 import sys
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 import typer
 
+from resus.cli.parsers import flag_error, parse_numbers, settings_from_flags
 from resus.errors import ResusError
+
+if TYPE_CHECKING:
+    from resus.acquisition.factory import (
+        RTDERobotConfig,
+        SimulatedProbeConfig,
+        SimulatedRobotConfig,
+        VideoProbeConfig,
+    )
+    from sim.robot.scene_config import SceneConfig
 
 DEFAULT_WORKSPACE = "-0.45,-0.45,-0.05,0.45,0.45,0.45"
 
 
-def parse_numbers(text: str, count: int, option: str) -> tuple[float, ...]:
-    """'a,b,...' -> `count` floats."""
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != count or not all(np.isfinite(values)):
-        raise ResusError(f"{option}: expected {count} comma-separated numbers, got {text!r}")
-    return values
+def parse_probe(
+    text: str, frame_rate: float, calibration: Path | None, crop: str | None
+) -> SimulatedProbeConfig | VideoProbeConfig:
+    """The probe config for `--probe`: 'sim', 'sim:COLSxROWS' or 'video:DEVICE|URL|FILE'
+    (device index, stream URL or video file), with `--calibration` and `--crop` for video."""
+    from resus.acquisition.factory import SimulatedProbeConfig, VideoProbeConfig
+    from sim.ultrasound.probe import LinearProbe
 
-
-def parse_probe(text: str) -> tuple[str, object]:
-    """'sim' / 'sim:COLSxROWS' -> ("sim", (cols, rows) | None); 'video:SOURCE' -> ("video",
-    int device index or str URL/path)."""
     kind, _, argument = text.partition(":")
     if kind == "sim":
+        if calibration is not None or crop is not None:
+            raise ResusError("--calibration and --crop apply to --probe video only")
         if not argument:
-            return "sim", None
+            return SimulatedProbeConfig(frame_rate=frame_rate)
         try:
             cols, rows = (int(v) for v in argument.lower().split("x"))
         except ValueError:
@@ -52,10 +58,22 @@ def parse_probe(text: str) -> tuple[str, object]:
             raise ResusError(
                 f"--probe: expected sim or sim:COLSxROWS (e.g. sim:128x128), got {text!r}"
             )
-        return "sim", (cols, rows)
+        return SimulatedProbeConfig(probe=LinearProbe(cols=cols, rows=rows), frame_rate=frame_rate)
     if kind == "video" and argument:
-        return "video", int(argument) if argument.isdigit() else argument
+        if calibration is None:
+            raise ResusError("--probe video needs --calibration probe.yaml (crop and pixel size)")
+        source = int(argument) if argument.isdigit() else argument
+        box = None if crop is None else parse_numbers(crop, "--crop", count=4, kind=int)
+        with flag_error("--crop"):
+            return VideoProbeConfig(source, calibration, crop=box)
     raise ResusError(f"--probe: expected sim, sim:COLSxROWS or video:DEVICE|URL|FILE, got {text!r}")
+
+
+def parse_robot(text: str, scene_config: SceneConfig) -> SimulatedRobotConfig | RTDERobotConfig:
+    """The robot config for `--robot`: 'sim' (in-process MuJoCo UR3e) or a controller address."""
+    from resus.acquisition.factory import RTDERobotConfig, SimulatedRobotConfig
+
+    return SimulatedRobotConfig(scene_config) if text == "sim" else RTDERobotConfig(host=text)
 
 
 def describe_plan(trajectory, source: Path, limits, robot_pose: np.ndarray, probe_text: str) -> str:
@@ -93,49 +111,6 @@ def confirm_motion(assume_yes: bool) -> None:
         raise ResusError("refusing to move the robot without confirmation: no terminal; pass --yes")
     if not typer.confirm("Move the robot and scan?", default=False):
         raise ResusError("scan cancelled; the robot did not move")
-
-
-def _open_robot(robot: str, scene_config):
-    """The robot for `--robot`: the simulated UR3e, or RTDERobot on a controller address."""
-    if robot == "sim":
-        from resus.acquisition.backends.simulated import SimulatedRobot
-
-        return SimulatedRobot(scene_config)
-    from resus.acquisition.backends.rtde import RTDERobot, RTDERobotConfig
-
-    return RTDERobot(RTDERobotConfig(host=robot))
-
-
-def _open_probe(kind: str, argument: object, robot, scene_config, frame_rate: float, options):
-    """The probe for `--probe`."""
-    if kind == "sim":
-        from resus.acquisition.backends.simulated import (
-            SimulatedProbe,
-            SimulatedProbeConfig,
-            SimulatedRobot,
-        )
-        from resus.acquisition.simulation import phantom_spec
-        from sim.phantom import Phantom
-        from sim.ultrasound.probe import LinearProbe
-
-        geometry = (
-            LinearProbe() if argument is None else LinearProbe(cols=argument[0], rows=argument[1])
-        )
-        config = SimulatedProbeConfig(probe=geometry, frame_rate=frame_rate)
-        phantom = Phantom(phantom_spec(scene_config))
-        if isinstance(robot, SimulatedRobot):
-            probe = SimulatedProbe(robot, config, phantom, scene_config)
-            probe.poll()  # the first frame loads the renderer's compiled kernels: not mid-sweep
-            return probe
-        from resus.acquisition.backends.render_process import RenderProcessProbe
-
-        return RenderProcessProbe(robot, config, phantom, scene_config)
-    from resus.acquisition.backends.video import VideoProbe, VideoProbeConfig
-
-    if options["calibration"] is None:
-        raise ResusError("--probe video needs --calibration probe.yaml (crop and pixel size)")
-    crop = None if options["crop"] is None else parse_numbers(options["crop"], 4, "--crop")
-    return VideoProbe(VideoProbeConfig(argument, options["calibration"], crop=crop))
 
 
 def robot_minus_probe_clock(robot) -> float:
@@ -200,6 +175,7 @@ def scan(
     web_port: Annotated[int, typer.Option(help="HTTP port of the served web viewer.")] = 9090,
 ) -> None:
     """Scan along a planned trajectory and record a Sweep, watching it live in rerun."""
+    from resus.acquisition.factory import SimulatedProbeConfig, make_probe, make_robot
     from resus.acquisition.robot import RobotFault
     from resus.acquisition.safety import SafetyLimits
     from resus.acquisition.scanner import Scanner, ScannerSettings
@@ -208,29 +184,31 @@ def scan(
 
     if not out.parent.is_dir():
         raise ResusError("output folder does not exist", out.parent)
-    probe_kind, probe_argument = parse_probe(probe)
-    if probe_kind == "video" and robot == "sim":
+    if probe.partition(":")[0] == "video" and robot == "sim":
         raise ResusError("--probe video needs a real robot clock: use --robot HOST")
-    if probe_kind == "sim" and (calibration is not None or crop is not None):
-        raise ResusError("--calibration and --crop apply to --probe video only")
     if not volume_voxel > 0:
         raise ResusError(f"--volume-voxel must be positive, got {volume_voxel}")
-    bounds = parse_numbers(workspace, 6, "--workspace")
-    limits = SafetyLimits(bounds[:3], bounds[3:], max_speed, max_force)
+    bounds = parse_numbers(workspace, "--workspace", count=6)
+    limits = settings_from_flags(
+        SafetyLimits,
+        workspace_min=("--workspace", bounds[:3]),
+        workspace_max=("--workspace", bounds[3:]),
+        max_speed=("--max-speed", max_speed),
+        max_force=("--max-force", max_force),
+    )
     if not 0 < approach_speed <= max_speed:
         raise ResusError(f"--approach-speed must be in (0, --max-speed], got {approach_speed}")
     plan = Trajectory.from_yaml(trajectory)
     scene_config = resolve_scene(scene, phantom, subject)
-    options = {"calibration": calibration, "crop": crop}
+    probe_config = parse_probe(probe, plan.frame_rate, calibration, crop)
+    simulated = isinstance(probe_config, SimulatedProbeConfig)
     try:
         with contextlib.ExitStack() as viewer, contextlib.ExitStack() as devices:
-            robot_device = devices.enter_context(_open_robot(robot, scene_config))
-            probe_device = _open_probe(
-                probe_kind, probe_argument, robot_device, scene_config, plan.frame_rate, options
-            )
+            robot_device = devices.enter_context(make_robot(parse_robot(robot, scene_config)))
+            probe_device = make_probe(probe_config, robot_device, scene_config)
             devices.callback(probe_device.close)
             offset = time_offset
-            if probe_kind == "video":
+            if not simulated:
                 offset += robot_minus_probe_clock(robot_device)
             typer.echo(describe_plan(plan, trajectory, limits, robot_device.tcp_pose(), probe))
             settings = ScannerSettings(
@@ -241,16 +219,14 @@ def scan(
             session, listeners = None, ()
             if rerun is not None or rerun_save is not None:
                 session, listeners = _live_listeners(
-                    viewer, plan, probe_device, scene_config if probe_kind == "sim" else None,
+                    viewer, plan, probe_device, scene_config if simulated else None,
                     rerun, rerun_save, volume_every, volume_voxel, grpc_port, web_port,
                 )  # fmt: skip
             scanner = Scanner(robot_device, probe_device, limits, settings, listeners)
             name = subject_name
             if name is None:
-                name = subject_id(scene_config) if probe_kind == "sim" else ""
-            result = scanner.run(
-                plan, out, source="sim" if probe_kind == "sim" else "real", subject=name
-            )
+                name = subject_id(scene_config) if simulated else ""
+            result = scanner.run(plan, out, source="sim" if simulated else "real", subject=name)
             devices.close()  # stop the control script and disconnect before lingering
             typer.echo(f"wrote {result.path}: {result.frames} frames over {result.duration:.2f} s")
             if listeners:

@@ -7,30 +7,8 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.parsers import parse_index_set, parse_numbers
 from resus.errors import ResusError
-
-
-def parse_subjects(text: str) -> list[int]:
-    """'3', '0-7' or '0,2,5' -> subject indices."""
-    try:
-        subjects: list[int] = []
-        for part in text.split(","):
-            low, _, high = part.partition("-")
-            subjects += range(int(low), int(high or low) + 1)
-    except ValueError:
-        raise ResusError(f"--subjects: expected e.g. 3, 0-7 or 0,2,5, got {text!r}") from None
-    if not subjects or min(subjects) < 0:
-        raise ResusError(f"--subjects: expected non-negative subject numbers, got {text!r}")
-    return sorted(set(subjects))
-
-
-def parse_pair(text: str, option: str) -> tuple[float, float]:
-    """'x,y' -> (x, y)."""
-    try:
-        x, y = (float(v) for v in text.split(","))
-    except ValueError:
-        raise ResusError(f"{option}: expected two numbers 'x,y', got {text!r}") from None
-    return x, y
 
 
 def _simulate_one(job: dict) -> tuple[str, int]:
@@ -74,15 +52,15 @@ def simulate(
     tilt: Annotated[float, typer.Option(help="Linear: tilt about the array axis (deg).")] = 0.0,
     seed: Annotated[int | None, typer.Option(help="Phantom seed (anatomy and speckle).")] = None,
     preview: Annotated[Path | None, typer.Option(help="Also save a contact sheet PNG.")] = None,
-    jobs: Annotated[int, typer.Option(help="Worker processes for --subjects.")] = 2,
+    jobs: Annotated[int, typer.Option(min=1, help="Worker processes for --subjects.")] = 2,
 ) -> None:
     """Scan a simulated phantom with the simulated UR3e and write Sweeps with labels."""
     from resus.acquisition.simulation import LinearSweepParameters
 
     if trajectory == "linear":
         plan: object = LinearSweepParameters(
-            start=parse_pair(start, "--start"),
-            direction=parse_pair(direction, "--direction"),
+            start=parse_numbers(start, "--start", count=2),
+            direction=parse_numbers(direction, "--direction", count=2),
             length=length,
             speed=speed,
             contact_force=force if force > 0 else None,
@@ -100,7 +78,7 @@ def simulate(
         _simulate_one({**base, "subject": subject, "out": out, "progress": True})
         outputs = [out]
     else:
-        outputs = _simulate_many(base, parse_subjects(subjects), out, jobs)
+        outputs = _simulate_many(base, parse_index_set(subjects, "--subjects"), out, jobs)
     for path in outputs:
         typer.echo(f"wrote {path}")
     if preview is not None:
@@ -114,20 +92,15 @@ def simulate(
 
 def _simulate_many(base: dict, subjects: list[int], folder: Path, jobs: int) -> list[Path]:
     """One sweep per subject into `folder`, `jobs` processes at a time."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    from tqdm import tqdm
+    from resus.workers import map_in_processes
 
     folder.mkdir(parents=True, exist_ok=True)
     work = [
         {**base, "subject": k, "out": folder / f"subject_{k:02d}.h5", "progress": False}
         for k in subjects
     ]
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=max(1, jobs), mp_context=context) as pool:
-        done = tqdm(pool.map(_simulate_one, work), total=len(work), unit="sweep", desc="subjects")
-        return [Path(path) for path, _ in done]
+    done = map_in_processes(_simulate_one, work, jobs, desc="subjects", unit="sweep")
+    return [Path(path) for path, _ in done]
 
 
 def register(app: typer.Typer) -> None:

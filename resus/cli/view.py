@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.parsers import parse_choice
 from resus.errors import ResusError
 
 MAX_RESLICES = 200
@@ -63,10 +64,17 @@ def register(app: typer.Typer) -> None:
         2D images, force and joint series; with a volume, reslices and the scene's phantom."""
         from resus.sweep.io import read_sweep
         from resus.visualize import make_blueprint, open_recording
+        from resus.visualize.recording import LIVE_MODES
         from resus.visualize.sweep_logger import log_sweep
 
         if labels is not None and volume is None:
             raise ResusError("--labels needs --volume (the label volume tints its slices)")
+        if rerun is None and rerun_save is None:
+            raise ResusError(
+                "nowhere to send the recording: give --rerun-save FILE or --rerun serve"
+            )
+        if rerun is not None:
+            parse_choice(rerun, "--rerun", LIVE_MODES)
         sweep = read_sweep(sweep_path)
         predicted = None if predictions is None else _predicted_labels(predictions, sweep)
         phantom = None if scene is None else _scene_and_phantom(scene, subject)

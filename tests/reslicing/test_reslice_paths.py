@@ -7,9 +7,10 @@ import pytest
 from reslice_volumes import grid_for, vessel_volume
 from scipy import ndimage
 
+from resus.cli.parsers import parse_angles
 from resus.errors import ResusError
 from resus.reconstruction.grid import VolumeGrid
-from resus.reslicing.reslice import ResliceSettings, parse_angles, reslice_volume
+from resus.reslicing.reslice import ResliceSettings, reslice_volume
 from resus.reslicing.sampling import SampledVolume
 
 

@@ -1,0 +1,201 @@
+"""Usage errors of every command: one `error:` line (plus click's usage hint), exit 2, never a
+traceback; `--help`, `--version` and `python -m resus`.
+
+Most cases call `resus.cli.app.main` in this process (a fresh interpreter per case would cost
+a second or two each); a handful run the command line for real, as a user would.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from importlib.metadata import entry_points
+
+import pytest
+import typer
+from cli_runner import resus
+
+from resus import __version__
+from resus.cli import sweep as sweep_cli
+from resus.cli.app import app, main
+
+
+def command_paths() -> dict[tuple[str, ...], object]:
+    """Every runnable command, by the words that call it (e.g. ('sweep', 'info')), as the root
+    app's help and its groups' help list them."""
+    paths: dict[tuple[str, ...], object] = {}
+
+    def walk(command: object, path: tuple[str, ...]) -> None:
+        subcommands = getattr(command, "commands", None)
+        if subcommands is None:
+            paths[path] = command
+            return
+        for name, subcommand in subcommands.items():
+            walk(subcommand, (*path, name))
+
+    walk(typer.main.get_command(app), ())
+    return paths
+
+
+COMMANDS = command_paths()
+REQUIRED = {path: [p for p in command.params if p.required] for path, command in COMMANDS.items()}
+
+BAD_VALUES: dict[tuple[str, ...], tuple[list[str], str]] = {
+    ("demo",): (["--epochs", "many"], "Invalid value for '--epochs'"),
+    ("simulate",): (["--out", "s.h5", "--jobs", "0"], "Invalid value for '--jobs'"),
+    ("reconstruct",): (["s.h5", "--out", "v.nrrd", "--seed", "x"], "Invalid value for '--seed'"),
+    ("reslice",): (["v", "l", "--out", "o", "--step", "x"], "Invalid value for '--step'"),
+    ("train",): (["--sweeps", "s", "--out", "o", "--seed", "1.5"], "Invalid value for '--seed'"),
+    ("emulate",): (["--port-base", "x"], "Invalid value for '--port-base'"),
+    ("view",): (["s.h5", "--max-reslices", "0"], "Invalid value for '--max-reslices'"),
+    ("plan",): (["--out", "p.yaml", "--passes", "two"], "Invalid value for '--passes'"),
+    ("scan",): (
+        ["--robot", "sim", "--probe", "sim", "--trajectory", "t", "--out", "s", "--volume-every=0"],
+        "Invalid value for '--volume-every'",
+    ),
+    ("calibrate-time",): (["s.h5", "--step", "fast"], "Invalid value for '--step'"),
+    ("calibration-plan",): (["t.yaml", "--cycles", "x"], "Invalid value for '--cycles'"),
+    ("vessels",): (["s.h5", "--out", "o", "--subject", "x"], "Invalid value for '--subject'"),
+    # `sweep info` has no option: its argument is the value that can be bad
+    ("sweep", "info"): (["{tmp}/missing.h5"], "missing.h5: no such file"),
+    ("sweep", "import-plus"): (["x.igs.mha", "--out", "{tmp}/no/x.h5"], "output folder"),
+    ("sweep", "export-plus"): (["x.h5", "--out", "{tmp}/no/x.igs.mha"], "output folder"),
+    ("sweep", "preview"): (["s.h5", "--out", "p", "--count", "0"], "Invalid value for '--count'"),
+    ("experiment", "phantom"): (["--out", "o", "--jobs", "x"], "Invalid value for '--jobs'"),
+    ("experiment", "subjects"): (["--out", "o", "--seed", "x"], "Invalid value for '--seed'"),
+}
+
+
+def run_main(monkeypatch, capsys, *args: object) -> tuple[int, str, str]:
+    """`resus ARGS...` through `main` in this process: exit status, stdout, stderr."""
+    monkeypatch.setattr(sys, "argv", ["resus", *map(str, args)])
+    with pytest.raises(SystemExit) as exited:
+        main()
+    out, err = capsys.readouterr()
+    return exited.value.code, out, err
+
+
+def assert_usage_error(status: int, err: str, path: tuple[str, ...] | None, *fragments: str):
+    """Exit 2, one `error:` line with `fragments`, then (for a usage error of the command
+    `path`) click's hint naming that command; nothing else, no traceback."""
+    assert status == 2, err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert lines[0].startswith("error: "), err
+    for fragment in fragments:
+        assert fragment in lines[0], (fragment, lines[0])
+    if path is None:
+        assert len(lines) == 1, err
+    else:
+        assert lines[1:] == [f"Try '{' '.join(('resus', *path))} --help' for help."], err
+
+
+def ids(paths) -> list[str]:
+    return [" ".join(path) for path in paths]
+
+
+def test_every_command_has_a_bad_value_case():
+    assert set(BAD_VALUES) == set(COMMANDS)
+    assert {("sweep", "preview"), ("experiment", "subjects"), ("calibrate-time",)} <= set(COMMANDS)
+
+
+@pytest.mark.parametrize("path", list(COMMANDS), ids=ids(COMMANDS))
+def test_unknown_option(monkeypatch, capsys, path):
+    status, _, err = run_main(monkeypatch, capsys, *path, "--no-such-option")
+    assert_usage_error(status, err, path, "No such option: --no-such-option")
+
+
+WITH_REQUIRED = [path for path, params in REQUIRED.items() if params]
+
+
+@pytest.mark.parametrize("path", WITH_REQUIRED, ids=ids(WITH_REQUIRED))
+def test_missing_required_argument_or_option(monkeypatch, capsys, path):
+    status, _, err = run_main(monkeypatch, capsys, *path)
+    assert_usage_error(status, err, path, "Missing ")
+    assert err.startswith(("error: Missing argument '", "error: Missing option '--")), err
+
+
+@pytest.mark.parametrize("path", list(BAD_VALUES), ids=ids(BAD_VALUES))
+def test_bad_value(monkeypatch, capsys, tmp_path, path):
+    args, fragment = BAD_VALUES[path]
+    status, _, err = run_main(monkeypatch, capsys, *path, *(a.format(tmp=tmp_path) for a in args))
+    usage_error = fragment.startswith("Invalid value")  # from click, with its usage hint
+    assert_usage_error(status, err, path if usage_error else None, fragment)
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["calibrate-time", "s.h5", "--range", "0.5:-0.5"], "--range: expected LOW:HIGH"),
+        (["simulate", "--out", "o", "--subjects", "3-1"], "--subjects: expected e.g. 3"),
+        (["plan", "--out", "p.yaml", "--pattern", "spiral"], "--pattern must be one of linear"),
+        (["emulate", "--arm", "hydraulic"], "--arm must be one of mujoco, kinematic"),
+        (["emulate", "--fault", "meltdown"], "--fault"),
+        (["reconstruct", "s.h5", "--out", "v.nrrd", "--voxels", "8,8"], "--voxels: expected 3"),
+        (["reconstruct", "s.h5", "--out", "v.nrrd", "--grid", "sphere"], "--grid must be one of"),
+    ],
+)
+def test_a_refused_flag_value_is_one_line_naming_the_flag(monkeypatch, capsys, args, fragment):
+    status, _, err = run_main(monkeypatch, capsys, *args)
+    assert_usage_error(status, err, None, fragment)
+
+
+@pytest.mark.parametrize("path", [(), *COMMANDS], ids=["resus", *ids(COMMANDS)])
+def test_help_works_everywhere(monkeypatch, capsys, path):
+    status, out, err = run_main(monkeypatch, capsys, *path, "--help")
+    assert status == 0 and "Usage" in out and not err
+
+
+@pytest.mark.parametrize("group", [(), ("sweep",), ("experiment",)], ids=["resus", "sweep", "exp"])
+def test_a_group_without_a_command_shows_its_help(monkeypatch, capsys, group):
+    status, out, err = run_main(monkeypatch, capsys, *group)
+    assert status == 2 and "Usage" in out + err and "Traceback" not in err
+
+
+def test_ctrl_c_is_one_line_and_status_130(monkeypatch, capsys, tmp_path):
+    def interrupted(path):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep_cli, "_describe", interrupted)
+    status, _, err = run_main(monkeypatch, capsys, "sweep", "info", tmp_path / "s.h5")
+    assert status == 130 and err == "error: interrupted\n"
+
+
+def test_version_in_process(monkeypatch, capsys):
+    status, out, _ = run_main(monkeypatch, capsys, "--version")
+    assert status == 0 and out == f"resus {__version__}\n"
+
+
+def test_console_script_is_main():
+    (script,) = entry_points(group="console_scripts", name="resus")
+    assert script.value == "resus.cli.app:main"
+
+
+# -- the real command line, in a fresh interpreter -----------------------------------------
+
+
+def test_unknown_command_for_real():
+    done = resus("nosuch")
+    assert_usage_error(done.returncode, done.stderr, (), "No such command 'nosuch'")
+
+
+def test_missing_argument_for_real():
+    done = resus("reconstruct")
+    assert_usage_error(done.returncode, done.stderr, ("reconstruct",), "Missing argument 'SWEEP'")
+
+
+def test_out_of_range_option_for_real():
+    done = resus("sweep", "preview", "s.h5", "--count", "0")
+    assert_usage_error(done.returncode, done.stderr, ("sweep", "preview"), "'--count'")
+
+
+def test_version_for_real():
+    done = resus("--version")
+    assert done.returncode == 0 and done.stdout == f"resus {__version__}\n" and not done.stderr
+
+
+def test_python_dash_m_resus():
+    done = subprocess.run(
+        [sys.executable, "-m", "resus", "--version"], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0 and done.stdout == f"resus {__version__}\n"
