@@ -14,7 +14,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from resus.acquisition.simulation import LinearSweepParameters, resolve_scene, simulate_sweep
+from resus.acquisition.patterns import LinearPattern
+from resus.acquisition.simulation import resolve_scene, simulate_sweep
 
 
 def main() -> None:
@@ -24,12 +25,10 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=2, help="runs; the best is reported")
     args = parser.parse_args()
     scene = resolve_scene("default", None, 0)
-    plan = LinearSweepParameters(length=args.length, frame_rate=args.frame_rate)
+    plan = LinearPattern(length=args.length, frame_rate=args.frame_rate)
     with tempfile.TemporaryDirectory() as folder:
         # Warm-up: numba compilation and MuJoCo model building are not part of a scan.
-        simulate_sweep(
-            Path(folder) / "warm.h5", scene, LinearSweepParameters(length=0.005), progress=False
-        )
+        simulate_sweep(Path(folder) / "warm.h5", scene, LinearPattern(length=0.005), progress=False)
         best = None
         for run in range(args.repeats):
             start = time.perf_counter()

@@ -71,8 +71,9 @@ def register(app: typer.Typer) -> None:
         import numpy as np
 
         from resus.reconstruction.compounding import ReconstructionSettings, reconstruct
+        from resus.reconstruction.figures import save_slices_png
         from resus.reconstruction.grid import aabb_grid
-        from resus.reconstruction.io import intensity_to_uint8, save_slices_png, write_volume
+        from resus.reconstruction.io import intensity_to_uint8, write_volume
         from resus.reconstruction.ransac_grid import ransac_grid
 
         parse_choice(grid_kind, "--grid", GRIDS)

@@ -54,10 +54,12 @@ def register(app: typer.Typer) -> None:
         """Reslice a volume at oblique angles (the RESUS paper's procedure) into DIR/reslices.h5."""
         import numpy as np
 
+        from resus.indices import evenly_spaced
         from resus.reconstruction.io import read_volume
-        from resus.reslicing.dataset import DEFAULT_LABEL_NAMES, ResliceDataset, ResliceWriter
+        from resus.reslicing.dataset import ResliceDataset, ResliceWriter
         from resus.reslicing.reslice import ResliceSettings, check_volume, reslice_volume
-        from resus.reslicing.sheet import evenly_spaced, save_contact_sheet
+        from resus.reslicing.sheet import save_contact_sheet
+        from sim.labels import LABEL_NAMES
 
         settings = settings_from_flags(
             ResliceSettings,
@@ -84,7 +86,7 @@ def register(app: typer.Typer) -> None:
             settings,
             source_volume=str(volume_path),
             subject=subject or volume_path.stem,
-            label_names=label_names or DEFAULT_LABEL_NAMES,
+            label_names=label_names or LABEL_NAMES,
         ) as writer:
             for reslice in reslice_volume(volume, labels, grid, settings, progress=True):
                 writer.append(reslice)
@@ -95,7 +97,7 @@ def register(app: typer.Typer) -> None:
                 f"no slice has {min_nonzero:.0%} non-zero pixels: lower --min-nonzero", volume_path
             )
         with ResliceDataset(dataset_path) as dataset:
-            shown = [dataset[i] for i in evenly_spaced(SHEET_RESLICES, len(dataset))]
+            shown = [dataset[i] for i in evenly_spaced(len(dataset), SHEET_RESLICES)]
         title = f"{volume_path.name}: {writer.count} reslices ({method})"
         save_contact_sheet(sheet_path, shown, title=title)
         typer.echo(f"wrote {sheet_path}")

@@ -255,8 +255,8 @@ def _live_listeners(
     """Open the rerun recording; return it and the scanner listeners that log to it (frames
     and robot, then the live volume)."""
     from resus.reconstruction.live import LiveVolume, planned_grid
-    from resus.sweep.model import DEFAULT_LABEL_NAMES
     from resus.visualize import SweepLogger, make_blueprint, open_recording
+    from sim.labels import LABEL_NAMES
 
     middle = plan.pose_at(0.5 * plan.duration)[:3, 3]
     session = stack.enter_context(
@@ -272,7 +272,7 @@ def _live_listeners(
 
         log_phantom(session.stream, scene_config, probe_device.phantom)
     grid = planned_grid(plan, probe_device.image_to_probe, probe_device.shape, volume_voxel)
-    n_classes = len(DEFAULT_LABEL_NAMES) if probe_device.has_labels else 0
+    n_classes = len(LABEL_NAMES) if probe_device.has_labels else 0
     volume = LiveVolume(
         session.stream, grid, probe_device.image_to_probe, n_classes=n_classes, every=volume_every
     )

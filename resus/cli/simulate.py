@@ -55,10 +55,10 @@ def simulate(
     jobs: Annotated[int, typer.Option(min=1, help="Worker processes for --subjects.")] = 2,
 ) -> None:
     """Scan a simulated phantom with the simulated UR3e and write Sweeps with labels."""
-    from resus.acquisition.simulation import LinearSweepParameters
+    from resus.acquisition.patterns import LinearPattern
 
     if trajectory == "linear":
-        plan: object = LinearSweepParameters(
+        plan: object = LinearPattern(
             start=parse_numbers(start, "--start", count=2),
             direction=parse_numbers(direction, "--direction", count=2),
             length=length,

@@ -6,7 +6,8 @@
   nearest-neighbour and trilinear insertion, hole filling, label channels).
 - `kernels`: the numba kernels that insert frames and fill holes.
 - `live`: a volume that grows while a scan runs, logged to rerun.
-- `io`: NRRD and MetaImage volumes in millimetres; PNG pictures of three slices.
+- `io`: NRRD and MetaImage volumes in millimetres.
+- `figures`: PNG pictures of three orthogonal slices with labels.
 """
 
 from resus import lazy_exports
@@ -16,7 +17,8 @@ __getattr__, __dir__, __all__ = lazy_exports(
     """
 compounding: ReconstructedVolume ReconstructionSettings Reconstructor reconstruct
 grid: VolumeGrid aabb_grid frame_points_world
-io: intensity_to_uint8 read_volume save_slices_png write_volume
+io: intensity_to_uint8 read_volume write_volume
+figures: save_slices_png
 live: LiveVolume planned_grid
 ransac_grid: ransac_grid
 """,

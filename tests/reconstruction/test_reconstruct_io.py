@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from resus.errors import ResusError
+from resus.reconstruction.figures import save_slices_png
 from resus.reconstruction.grid import VolumeGrid
-from resus.reconstruction.io import intensity_to_uint8, read_volume, save_slices_png, write_volume
+from resus.reconstruction.io import intensity_to_uint8, read_volume, write_volume
 
 SKEWED = VolumeGrid(
     origin=(0.012, -0.034, 0.056),

@@ -4,12 +4,8 @@ import numpy as np
 import pytest
 
 from resus.acquisition.backends.simulated import SimulatedProbeConfig
-from resus.acquisition.simulation import (
-    LinearSweepParameters,
-    phantom_spec,
-    resolve_scene,
-    simulate_sweep,
-)
+from resus.acquisition.patterns import LinearPattern
+from resus.acquisition.simulation import phantom_spec, resolve_scene, simulate_sweep
 from resus.reconstruction.compounding import ReconstructionSettings, reconstruct
 from resus.reconstruction.grid import aabb_grid
 from resus.sweep.io import read_sweep
@@ -23,7 +19,7 @@ def simulated(tmp_path_factory):
     scene = resolve_scene("default", None, 2)
     path = tmp_path_factory.mktemp("sim") / "sweep.h5"
     probe = SimulatedProbeConfig(probe=LinearProbe(cols=128, rows=128), frame_rate=30.0)
-    simulate_sweep(path, scene, LinearSweepParameters(length=0.02), probe=probe, progress=False)
+    simulate_sweep(path, scene, LinearPattern(length=0.02), probe=probe, progress=False)
     return scene, read_sweep(path)
 
 

@@ -13,7 +13,6 @@ what rendering sustains instead of frames piling up.
 from __future__ import annotations
 
 import multiprocessing
-import os
 import queue
 
 import numpy as np
@@ -22,6 +21,7 @@ from resus.acquisition.backends.simulated import SimulatedProbeConfig
 from resus.acquisition.probe import Frame, SyntheticProbe
 from resus.acquisition.robot import Robot
 from resus.errors import ResusError
+from resus.workers import available_cores
 from sim.phantom import Phantom, PhantomSpec
 from sim.robot.scene_config import SceneConfig
 from sim.transforms import invert_pose
@@ -37,7 +37,7 @@ def _render_loop(spec: PhantomSpec, config: SimulatedProbeConfig, requests, resu
     import numba
 
     threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at runtime
-    numba.set_num_threads(max(1, min(threads, os.cpu_count() or 1) - 2))
+    numba.set_num_threads(max(1, min(threads, available_cores()) - 2))
     simulator = UltrasoundSimulator(Phantom(spec), config.probe, config.settings)
     simulator.render(np.eye(4))  # the first frame loads the compiled kernels
     results.put("ready")
