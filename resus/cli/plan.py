@@ -14,49 +14,63 @@ import typer
 from resus.cli.parsers import parse_choice, parse_numbers, settings_from_flags
 from resus.errors import ResusError
 
-PATTERNS = ("linear", "fan", "multipass", "raster")
+PATTERN_FLAGS = {
+    "start": "--start",
+    "direction": "--direction",
+    "length": "--length",
+    "speed": "--speed",
+    "acceleration": "--acceleration",
+    "contact_force": "--force",
+    "frame_rate": "--frame-rate",
+    "tilt_deg": "--tilt",
+    "fan_deg": "--fan-angle",
+    "passes": "--passes",
+    "offset": "--offset",
+}
+"""The pattern setting each flag sets (`resus.acquisition.patterns`)."""
+PATTERN_DEFAULT = "(default: the pattern's)"
 
 
-def _make_trajectory(pattern: str, phantom, phantom_to_base, options: dict):
-    """The trajectory for `pattern` from the command-line options."""
-    from resus.acquisition import patterns
+def make_pattern(name: str, given: dict[str, object]):
+    """The named pattern with the flags that were given; the others keep the pattern's own
+    defaults (one place for each: its dataclass). A flag the pattern does not take is an error."""
+    import dataclasses
 
-    common = {
-        key: options[key]
-        for key in ("start", "direction", "speed", "contact_force", "frame_rate", "tilt_deg")
-    }
-    common["acceleration"] = options["acceleration"]
-    if pattern == "linear":
-        return patterns.linear_sweep(phantom, phantom_to_base, length=options["length"], **common)
-    if pattern == "fan":
-        return patterns.fan_sweep(phantom, phantom_to_base, fan_deg=options["fan_deg"], **common)
-    make = patterns.multipass_sweep if pattern == "multipass" else patterns.raster_sweep
-    return make(
-        phantom,
-        phantom_to_base,
-        length=options["length"],
-        passes=options["passes"],
-        offset=options["offset"],
-        **common,
-    )
+    from resus.acquisition.patterns import PATTERNS
+
+    kind = PATTERNS[parse_choice(name, "--pattern", tuple(PATTERNS))]
+    fields = {field.name for field in dataclasses.fields(kind)}
+    for setting in given:
+        if setting not in fields:
+            raise ResusError(f"{PATTERN_FLAGS[setting]} does not apply to --pattern {name}")
+    flags = {setting: (PATTERN_FLAGS[setting], value) for setting, value in given.items()}
+    return settings_from_flags(kind, **flags)
 
 
 def plan(
     out: Annotated[Path, typer.Option(help="Trajectory YAML to write (resus.trajectory/1).")],
     pattern: Annotated[str, typer.Option(help="linear, fan, multipass or raster.")] = "linear",
-    start: Annotated[str, typer.Option(help="Start x,y on the skin (m, phantom frame).")] = (
-        "0,-0.04"
-    ),
-    direction: Annotated[str, typer.Option(help="Sweep direction x,y (phantom frame).")] = "0,1",
-    length: Annotated[float, typer.Option(help="Length of a pass (m).")] = 0.08,
-    speed: Annotated[float, typer.Option(help="Probe speed (m/s; fan: at image depth).")] = 0.01,
-    acceleration: Annotated[float, typer.Option(help="Acceleration (m/s^2).")] = 0.05,
-    force: Annotated[float, typer.Option(help="Contact force (N); 0: position control.")] = 4.0,
-    frame_rate: Annotated[float, typer.Option(help="Frames per second.")] = 30.0,
-    tilt: Annotated[float, typer.Option(help="Tilt about the array axis (deg).")] = 0.0,
-    fan_angle: Annotated[float, typer.Option(help="Fan: total rocking angle (deg).")] = 40.0,
-    passes: Annotated[int, typer.Option(help="Multipass/raster: number of passes.")] = 2,
-    offset: Annotated[float, typer.Option(help="Multipass/raster: pass spacing (m).")] = 0.02,
+    start: Annotated[
+        str | None, typer.Option(help=f"Start x,y on the skin (m, phantom) {PATTERN_DEFAULT}.")
+    ] = None,
+    direction: Annotated[
+        str | None, typer.Option(help=f"Sweep direction x,y (phantom) {PATTERN_DEFAULT}.")
+    ] = None,
+    length: Annotated[float | None, typer.Option(help="Length of a pass (m).")] = None,
+    speed: Annotated[
+        float | None, typer.Option(help="Probe speed (m/s; fan: at image depth).")
+    ] = None,
+    acceleration: Annotated[float | None, typer.Option(help="Acceleration (m/s^2).")] = None,
+    force: Annotated[
+        float | None, typer.Option(help="Contact force (N); 0: position control.")
+    ] = None,
+    frame_rate: Annotated[float | None, typer.Option(help="Frames per second.")] = None,
+    tilt: Annotated[float | None, typer.Option(help="Tilt about the array axis (deg).")] = None,
+    fan_angle: Annotated[float | None, typer.Option(help="Fan: total rocking angle (deg).")] = None,
+    passes: Annotated[int | None, typer.Option(help="Multipass/raster: number of passes.")] = None,
+    offset: Annotated[
+        float | None, typer.Option(help="Multipass/raster: pass spacing (m).")
+    ] = None,
     voxel_size: Annotated[float, typer.Option(help="Intended voxel size (m).")] = 0.5e-3,
     scene: Annotated[str, typer.Option(help="Scene name (assets/scenes) or YAML path.")] = (
         "default"
@@ -68,16 +82,30 @@ def plan(
         bool, typer.Option(help="Also scan it in simulation and measure the holes.")
     ] = False,
 ) -> None:
-    """Plan a scan, check it (IK, limits, singularities, collisions, spacing, coverage, holes)."""
-    parse_choice(pattern, "--pattern", PATTERNS)
-    if passes < 1:
-        raise ResusError(f"--passes must be at least 1, got {passes}")
+    """Plan a scan, check it (IK, limits, singularities, collisions, spacing, coverage, holes).
+
+    Settings not given keep the pattern's defaults (`resus.acquisition.patterns`)."""
+    given = {
+        "start": None if start is None else parse_numbers(start, "--start", count=2),
+        "direction": None
+        if direction is None
+        else parse_numbers(direction, "--direction", count=2),
+        "length": length,
+        "speed": speed,
+        "acceleration": acceleration,
+        "contact_force": force,
+        "frame_rate": frame_rate,
+        "tilt_deg": tilt,
+        "fan_deg": fan_angle,
+        "passes": passes,
+        "offset": offset,
+    }
+    given = {setting: value for setting, value in given.items() if value is not None}
+    if given.get("contact_force") == 0:
+        given["contact_force"] = None  # position control
     if not out.parent.is_dir():
         raise ResusError("output folder does not exist", out.parent)
-    if force < 0:
-        raise ResusError(f"--force must be >= 0, got {force}")
-    if not frame_rate > 0:
-        raise ResusError(f"--frame-rate must be positive, got {frame_rate}")
+    sweep_pattern = make_pattern(pattern, given)
     from resus.acquisition.simulation import phantom_spec, resolve_scene
     from resus.planning.planner import PlanSettings, check_plan
     from sim.phantom import Phantom
@@ -85,20 +113,7 @@ def plan(
     settings = settings_from_flags(PlanSettings, voxel_size=("--voxel-size", voxel_size))
     scene_config = resolve_scene(scene, phantom, subject)
     phantom_model = Phantom(phantom_spec(scene_config))
-    options = {
-        "start": parse_numbers(start, "--start", count=2),
-        "direction": parse_numbers(direction, "--direction", count=2),
-        "length": length,
-        "speed": speed,
-        "acceleration": acceleration,
-        "contact_force": force if force > 0 else None,
-        "frame_rate": frame_rate,
-        "tilt_deg": tilt,
-        "fan_deg": fan_angle,
-        "passes": passes,
-        "offset": offset,
-    }
-    trajectory = _make_trajectory(pattern, phantom_model, scene_config.phantom_to_base, options)
+    trajectory = sweep_pattern.trajectory(phantom_model, scene_config.phantom_to_base)
     trajectory.to_yaml(out)
     typer.echo(f"wrote {out}")
     analysis = check_plan(trajectory, scene_config, phantom_model, settings)

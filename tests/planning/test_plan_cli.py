@@ -31,7 +31,9 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path) -> None:
     for args, message in (
         (["--pattern", "spiral"], "--pattern must be one of"),
         (["--start", "1"], "--start: expected 2 comma-separated numbers"),
-        (["--pattern", "raster", "--passes", "0"], "--passes must be at least 1"),
+        (["--pattern", "raster", "--passes", "0"], "--passes: RasterPattern.passes must be at"),
+        (["--pattern", "fan", "--length", "0.02"], "--length does not apply to --pattern fan"),
+        (["--force", "-1"], "--force: LinearPattern.contact_force must be positive"),
         (["--voxel-size", "0"], "--voxel-size"),
     ):
         result = resus("plan", "--out", tmp_path / "plan.yaml", *args)
@@ -42,8 +44,8 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path) -> None:
 def test_saved_plan_runs_unchanged_in_the_simulator(tmp_path: Path) -> None:
     scene = resolve_scene("default", None, None)
     resus_result = resus(
-        "plan", "--out", tmp_path / "plan.yaml", "--pattern", "raster", "--length", "0.012",
-        "--passes", "2", "--offset", "0.004", "--speed", "0.012",
+        "plan", "--out", tmp_path / "plan.yaml", "--pattern", "raster", "--start", "0,-0.04",
+        "--length", "0.012", "--passes", "2", "--offset", "0.004", "--speed", "0.012",
     )  # fmt: skip
     assert resus_result.returncode == 0, resus_result.stdout
     plan = Trajectory.from_yaml(tmp_path / "plan.yaml")
