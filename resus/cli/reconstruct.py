@@ -77,6 +77,10 @@ def register(app: typer.Typer) -> None:
         from resus.reconstruction.ransac_grid import ransac_grid
 
         parse_choice(grid_kind, "--grid", GRIDS)
+        if voxels is not None and grid_kind == "aabb":
+            raise ResusError(
+                "--voxels sets the RANSAC grid's counts; the aabb grid takes --spacing"
+            )
         shape = None if voxels is None else parse_numbers(voxels, "--voxels", count=3, kind=int)
         settings = settings_from_flags(
             ReconstructionSettings,
@@ -111,13 +115,14 @@ def register(app: typer.Typer) -> None:
             sweep.frames, poses, sweep.image_to_probe, grid, settings,
             labels=sweep.labels, n_classes=len(label_names or ()), progress=True, total=len(poses),
         )  # fmt: skip
-        write_volume(out, intensity_to_uint8(result.volume), grid)
+        subject = sweep.subject or None
+        write_volume(out, intensity_to_uint8(result.volume), grid, subject=subject)
         typer.echo(
             f"wrote {out} ({result.observed.mean():.1%} of voxels observed, "
             f"{result.filled.mean():.1%} filled)"
         )
         if labels_out is not None:
-            write_volume(labels_out, result.labels, grid, label_names)
+            write_volume(labels_out, result.labels, grid, label_names, subject=subject)
             typer.echo(f"wrote {labels_out}")
         if png is not None:
             save_slices_png(

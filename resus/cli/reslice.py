@@ -15,6 +15,17 @@ GRID_TOLERANCE = 1e-6
 """Metres: volume files round positions, so grids this close are the same grid."""
 
 
+def _recorded_subject(volume_path: Path) -> str:
+    """The subject the volume records (its sweep's); without one the user must say it, since
+    training matches reslices to frames by subject."""
+    from resus.reconstruction.io import volume_subject
+
+    recorded = volume_subject(volume_path)
+    if recorded is None:
+        raise ResusError("the volume records no subject: give --subject", volume_path)
+    return recorded
+
+
 def register(app: typer.Typer) -> None:
     """Add the `reslice` command to the root app."""
 
@@ -48,8 +59,9 @@ def register(app: typer.Typer) -> None:
             ),
         ] = "fast",
         subject: Annotated[
-            str, typer.Option(help="Subject id for the dataset (default: the volume's file name).")
-        ] = "",
+            str | None,
+            typer.Option(help="Subject id for the dataset (default: the one the volume records)."),
+        ] = None,
     ) -> None:
         """Reslice a volume at oblique angles (the RESUS paper's procedure) into DIR/reslices.h5."""
         import numpy as np
@@ -85,7 +97,7 @@ def register(app: typer.Typer) -> None:
             dataset_path,
             settings,
             source_volume=str(volume_path),
-            subject=subject or volume_path.stem,
+            subject=subject or _recorded_subject(volume_path),
             label_names=label_names or LABEL_NAMES,
         ) as writer:
             for reslice in reslice_volume(volume, labels, grid, settings, progress=True):

@@ -20,6 +20,8 @@ from resus.reconstruction.grid import VolumeGrid
 MM = 1e3
 NRRD_SUFFIXES = (".nrrd", ".nhdr")
 METAIMAGE_SUFFIXES = (".mha", ".mhd")
+SUBJECT_FIELD = "resus_subject"
+"""Header field of the subject whose sweep a volume was reconstructed from."""
 
 
 def _suffix(path: Path) -> str:
@@ -30,9 +32,17 @@ def _suffix(path: Path) -> str:
 
 
 def write_volume(
-    path: str | Path, array: np.ndarray, grid: VolumeGrid, label_names: list[str] | None = None
+    path: str | Path,
+    array: np.ndarray,
+    grid: VolumeGrid,
+    label_names: list[str] | None = None,
+    subject: str | None = None,
 ) -> Path:
-    """Write `array` (nx, ny, nz) on `grid` as NRRD or MetaImage (by suffix), in millimetres."""
+    """Write `array` (nx, ny, nz) on `grid` as NRRD or MetaImage (by suffix), in millimetres.
+
+    `label_names` and the `subject` of the sweep it was reconstructed from are kept as header
+    fields (`label_names`, `resus_subject`), so that reslices of the volume know their subject.
+    """
     path = Path(path)
     suffix = _suffix(path)
     if array.shape != grid.shape:
@@ -50,6 +60,8 @@ def write_volume(
         }
         if label_names:
             header["label_names"] = ",".join(label_names)
+        if subject:
+            header[SUBJECT_FIELD] = subject
         nrrd.write(str(path), np.ascontiguousarray(array), header, index_order="F")
     else:
         import SimpleITK as sitk
@@ -60,6 +72,8 @@ def write_volume(
         image.SetDirection(tuple(grid.directions.T.ravel()))
         if label_names:
             image.SetMetaData("label_names", ",".join(label_names))
+        if subject:
+            image.SetMetaData(SUBJECT_FIELD, subject)
         sitk.WriteImage(image, str(path), useCompression=True)
     return path
 
@@ -107,6 +121,31 @@ def read_volume(path: str | Path) -> tuple[np.ndarray, VolumeGrid, list[str] | N
         names = image.GetMetaData("label_names") if image.HasMetaDataKey("label_names") else None
     grid = VolumeGrid(origin=origin, axes=axes, shape=array.shape)
     return np.ascontiguousarray(array), grid, names.split(",") if names else None
+
+
+def volume_subject(path: str | Path) -> str | None:
+    """The subject of the sweep a volume was reconstructed from, if its header records one
+    (the header alone is read)."""
+    path = Path(path)
+    suffix = _suffix(path)
+    if not path.is_file():
+        raise ResusError("no such volume file", path)
+    if suffix in NRRD_SUFFIXES:
+        import nrrd
+
+        try:
+            return nrrd.read_header(str(path)).get(SUBJECT_FIELD) or None
+        except Exception as error:  # pynrrd raises several kinds for a file that is not NRRD
+            raise ResusError(f"not a readable NRRD volume ({error})", path) from None
+    import SimpleITK as sitk
+
+    reader = sitk.ImageFileReader()
+    reader.SetFileName(str(path))
+    try:
+        reader.ReadImageInformation()
+    except RuntimeError as error:
+        raise ResusError(f"not a readable MetaImage volume ({error})", path) from None
+    return reader.GetMetaData(SUBJECT_FIELD) if reader.HasMetaDataKey(SUBJECT_FIELD) else None
 
 
 def intensity_to_uint8(volume: np.ndarray) -> np.ndarray:

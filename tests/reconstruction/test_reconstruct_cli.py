@@ -10,7 +10,8 @@ from shared_data import PLUS_SEQUENCE as SEQUENCE
 from shared_data import requires_plus_data
 from sweep_samples import sample_sweep
 
-from resus.reconstruction.io import read_volume
+from resus.reconstruction.io import read_volume, volume_subject
+from resus.sweep.io import write_sweep
 from resus.sweep.plus import export_plus_sequence
 
 
@@ -56,6 +57,7 @@ def test_reconstructs_a_plus_sequence(tmp_path: Path, grid_args: list[str], out_
         (["s.igs.mha", "--out", "v.nrrd", "--method", "cubic"], "--method"),
         (["s.igs.mha", "--out", "v.nrrd", "--radius", "-1"], "--radius"),
         (["s.igs.mha", "--out", "nowhere/v.nrrd"], "output folder"),
+        (["s.igs.mha", "--out", "v.nrrd", "--grid", "aabb", "--voxels", "8,8,8"], "--voxels"),
     ],
 )
 def test_bad_input_is_one_line_and_non_zero(tmp_path: Path, args: list, message: str) -> None:
@@ -68,3 +70,14 @@ def test_bad_input_is_one_line_and_non_zero(tmp_path: Path, args: list, message:
     assert done.returncode != 0
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:") and message in lines[0], done.stderr
+
+
+def test_volumes_record_the_sweeps_subject(tmp_path: Path) -> None:
+    write_sweep(tmp_path / "s.h5", sample_sweep(6))
+    volume, labels = tmp_path / "v.nrrd", tmp_path / "l.mha"
+    done = resus(
+        "reconstruct", tmp_path / "s.h5", "--out", volume, "--labels-out", labels,
+        "--grid", "aabb", "--spacing", "0.002", "--fill-passes", "0",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert volume_subject(volume) == volume_subject(labels) == "phantom-7"

@@ -8,7 +8,7 @@ import pytest
 from resus.errors import ResusError
 from resus.reconstruction.figures import save_slices_png
 from resus.reconstruction.grid import VolumeGrid
-from resus.reconstruction.io import intensity_to_uint8, read_volume, write_volume
+from resus.reconstruction.io import intensity_to_uint8, read_volume, volume_subject, write_volume
 
 SKEWED = VolumeGrid(
     origin=(0.012, -0.034, 0.056),
@@ -20,14 +20,15 @@ SKEWED = VolumeGrid(
 @pytest.mark.parametrize("suffix", [".nrrd", ".mha"])
 def test_round_trip_keeps_values_and_geometry(tmp_path: Path, suffix: str) -> None:
     volume = np.random.default_rng(0).integers(0, 256, size=SKEWED.shape, dtype=np.uint8)
-    path = write_volume(
-        tmp_path / f"v{suffix}", volume, SKEWED, label_names=["background", "artery", "vein"]
-    )
-    array, grid, names = read_volume(path)
+    names = ["background", "artery", "vein"]
+    path = write_volume(tmp_path / f"v{suffix}", volume, SKEWED, names, subject="default/3")
+    array, grid, read_names = read_volume(path)
     np.testing.assert_array_equal(array, volume)
     np.testing.assert_allclose(grid.origin, SKEWED.origin, atol=1e-12)
     np.testing.assert_allclose(grid.axes, SKEWED.axes, atol=1e-12)
-    assert names == ["background", "artery", "vein"]
+    assert read_names == names and volume_subject(path) == "default/3"
+    bare = write_volume(tmp_path / f"bare{suffix}", volume, SKEWED)
+    assert volume_subject(bare) is None
 
 
 def test_nrrd_header_is_lps_millimetres(tmp_path: Path) -> None:

@@ -30,7 +30,9 @@ def volume_files(tmp_path_factory):
     shape = (32, 32, 40)
     volume, labels = vessel_volume(shape)
     grid = grid_for(shape)
-    volume_path = write_volume(folder / "volume.nrrd", intensity_to_uint8(volume), grid)
+    volume_path = write_volume(
+        folder / "volume.nrrd", intensity_to_uint8(volume), grid, subject="default/3"
+    )
     labels_path = write_volume(
         folder / "labels.mha", labels, grid, ["background", "artery", "vein"]
     )
@@ -58,7 +60,8 @@ def test_reslice_writes_dataset_and_contact_sheet(app, volume_files, tmp_path):
     assert "reslices from 9 angle pairs" in result.output
     with ResliceDataset(out / "reslices.h5") as dataset:
         assert len(dataset) > 10 and dataset.images.shape[1:] == (48, 48)
-        assert dataset.attrs["subject"] == "volume" and dataset.attrs["min_nonzero"] == 0.4
+        # the subject comes from the volume's header (its sweep's), not from the file name
+        assert dataset.attrs["subject"] == "default/3" and dataset.attrs["min_nonzero"] == 0.4
         assert set(np.unique(dataset.labels[:])) == {0, 1, 2}
         assert {tuple(a) for a in dataset.angles_deg[:]} <= {
             (x, y) for x in (-20, 0, 20) for y in (-20, 0, 20)
@@ -78,6 +81,7 @@ def test_reslice_writes_dataset_and_contact_sheet(app, volume_files, tmp_path):
         ({"labels": "short.nrrd"}, "short.nrrd: labels shape"),
         ({"options": ["--angles", "10:0:5"]}, "--angles: expected start:stop:step"),
         ({"options": ["--method", "warp"]}, ("--method", "must be one of fast, rotate")),
+        ({"volume": "no_subject.nrrd"}, "no_subject.nrrd: the volume records no subject"),
         (
             {"options": ["--angles", "30", "--min-nonzero", "1.0"]},
             "volume.nrrd: no slice has 100% non-zero pixels",
@@ -94,6 +98,7 @@ def test_bad_input_is_one_clear_error(app, volume_files, tmp_path, change, messa
     )
     write_volume(folder / "short.nrrd", np.zeros((32, 32, 39), np.uint8), grid_for((32, 32, 39)))
     (folder / "volume.txt").write_text("")
+    write_volume(folder / "no_subject.nrrd", np.zeros(shape, np.uint8), grid_for(shape))
     volume = folder / change["volume"] if "volume" in change else volume_path
     labels = folder / change["labels"] if "labels" in change else labels_path
     arguments = [
