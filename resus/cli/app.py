@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import os
+import signal
 import sys
 from types import ModuleType
 from typing import Annotated, NoReturn
@@ -96,6 +97,12 @@ def _usage_hint(error: Exception) -> str | None:
     return f"Try '{context.command_path} {context.help_option_names[0]}' for help."
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    """A SIGTERM handler: raise KeyboardInterrupt, so context managers and `finally` blocks
+    close what the command opened (a served viewer's process, a sweep file) before it exits."""
+    raise KeyboardInterrupt
+
+
 def main() -> None:
     """Console-script entry point: parse `sys.argv`, run the command, exit with its status.
 
@@ -105,6 +112,7 @@ def main() -> None:
     """
     exceptions = click_exceptions()
     command = typer.main.get_command(app)
+    signal.signal(signal.SIGTERM, _interrupt)  # `kill` cleans up like Ctrl-C: servers, files
     try:
         with command.make_context("resus", sys.argv[1:]) as context:
             command.invoke(context)

@@ -40,6 +40,21 @@ def grpc_url(port: int) -> str:
     return f"rerun+http://{LOCALHOST}:{port}/proxy"
 
 
+def _check_free(name: str, port: int) -> None:
+    """ResusError unless `port` on 127.0.0.1 can be bound (`name` is the setting it came from)."""
+    if not 0 < port < 65536:
+        raise ResusError(f"{name} must be a port number in 1-65535, got {port}")
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # TIME_WAIT is no owner
+        try:
+            probe.bind((LOCALHOST, port))
+        except OSError as error:
+            raise ResusError(
+                f"{name} {port} on {LOCALHOST} is in use ({error.strerror}); "
+                "is another viewer still running?"
+            ) from None
+
+
 class WebViewerServer:
     """A rerun server process hosting the web viewer and a gRPC proxy, on localhost only.
 
@@ -54,7 +69,10 @@ class WebViewerServer:
         recordings: tuple[Path, ...] = (),
     ) -> None:
         """Start it and wait until both ports accept connections; `recordings` are `.rrd`
-        files for it to serve."""
+        files for it to serve. A port already taken (say by a server left from an earlier run)
+        is an error here: otherwise the new server would exit at once and the old one answer."""
+        for name, port in (("grpc_port", grpc_port), ("web_port", web_port)):
+            _check_free(name, port)
         self.grpc_url = grpc_url(grpc_port)
         self.url = f"http://{LOCALHOST}:{web_port}/?url={quote(self.grpc_url, safe='')}"
         """The web viewer's address, connected to the gRPC proxy."""

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import signal
 import socket
+import subprocess
+import sys
+import time
 import urllib.request
 from pathlib import Path
 
@@ -10,6 +14,7 @@ import numpy as np
 import pytest
 import rerun as rr
 import typer
+from cli_runner import resus
 from rerun_readback import Recording
 from sweep_samples import sample_sweep
 from typer.testing import CliRunner
@@ -167,3 +172,35 @@ def test_serve_hosts_web_viewer_and_grpc_on_localhost_only(tmp_path):
         session.close()
     assert session.server.process.returncode is not None
     assert "/probe" in Recording(tmp_path / "live.rrd").entities
+
+
+def test_sigterm_stops_the_served_viewer_and_a_taken_port_is_one_error(inputs):
+    """`kill` ends `resus view --rerun serve` like Ctrl-C: its server goes too and frees the
+    ports; a port that is still taken is one error line and exit 2, not a silent success."""
+    grpc_port, web_port = free_port(), free_port()
+    command = [
+        sys.executable, "-m", "resus", "view", str(inputs["sweep"]), "--rerun", "serve",
+        "--grpc-port", str(grpc_port), "--web-port", str(web_port),
+    ]  # fmt: skip
+    viewer = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert viewer.stdout is not None
+        for line in viewer.stdout:  # wait until it serves
+            if line.startswith("serving"):
+                break
+        # while it serves, a second viewer on the same ports is refused in one line
+        second = resus("view", inputs["sweep"], "--rerun", "serve",
+                       "--grpc-port", grpc_port, "--web-port", web_port)  # fmt: skip
+        assert second.returncode == 2, second.stdout + second.stderr
+        lines = second.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("error: grpc_port"), second.stderr
+        assert f"{grpc_port} on 127.0.0.1 is in use" in lines[0]
+        viewer.send_signal(signal.SIGTERM)
+        assert viewer.wait(timeout=30) == 0  # a served viewer ends on Ctrl-C; kill is the same
+    finally:
+        viewer.kill()
+        viewer.wait(timeout=10)
+    deadline = time.monotonic() + 10
+    while listening_addresses(grpc_port) or listening_addresses(web_port):
+        assert time.monotonic() < deadline, "the rerun server outlived its viewer command"
+        time.sleep(0.1)
