@@ -221,7 +221,8 @@ class Scanner:
         start_time = robot.time()
         end_time = start_time + trajectory.duration
         pending: list[Frame] = []
-        expected = int(trajectory.duration * trajectory.frame_rate)
+        # frames evenly spaced over [start, end], both ends included: at most this many
+        expected = int(np.floor(trajectory.duration * trajectory.frame_rate)) + 1
         with tqdm(
             total=expected, unit="frame", desc="scanning", disable=not settings.progress
         ) as bar:
