@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -12,10 +13,11 @@ from resus.acquisition.backends.simulated import (
     SimulatedProbeConfig,
     SimulatedRobot,
 )
-from resus.acquisition.patterns import LinearPattern, SweepPattern
+from resus.acquisition.patterns import SweepPattern
 from resus.acquisition.scanner import Scanner, ScannerSettings, ScanResult
 from resus.acquisition.trajectory import Trajectory
 from resus.errors import simulator_errors
+from resus.sweep.model import FrameSink
 from sim.phantom import Phantom, PhantomSpec
 from sim.robot.scene import load_scene_phantom
 from sim.robot.scene_config import SceneConfig, load_scene_config, scene_path
@@ -38,9 +40,6 @@ def phantom_spec(scene: SceneConfig, seed: int | None = None) -> PhantomSpec:
         return load_scene_phantom(scene, seed)
 
 
-LinearSweepParameters = LinearPattern  # until its callers move to LinearPattern
-
-
 def simulate_sweep(
     out: str | Path,
     scene: SceneConfig,
@@ -49,16 +48,20 @@ def simulate_sweep(
     seed: int | None = None,
     probe: SimulatedProbeConfig | None = None,
     progress: bool = True,
+    listeners: Sequence[FrameSink] = (),
 ) -> ScanResult:
     """Scan the scene's phantom with the simulated UR3e along `trajectory` (or a pattern made
-    over the phantom) and write a labelled Sweep to `out`."""
+    over the phantom) and write a labelled Sweep to `out`; `listeners` (the scanner's) get
+    every frame as it is recorded, e.g. an OpenIGTLink server streaming the scan live."""
     phantom = Phantom(phantom_spec(scene, seed))
     if isinstance(trajectory, SweepPattern):
         trajectory = trajectory.trajectory(phantom, scene.phantom_to_base)
     robot = SimulatedRobot(scene)
     probe_config = probe or SimulatedProbeConfig(frame_rate=trajectory.frame_rate)
     probe_source = SimulatedProbe(robot, probe_config, phantom)
-    scanner = Scanner(robot, probe_source, settings=ScannerSettings(progress=progress))
+    scanner = Scanner(
+        robot, probe_source, settings=ScannerSettings(progress=progress), listeners=listeners
+    )
     return scanner.run(trajectory, out, source="sim", subject=subject_id(scene))
 
 

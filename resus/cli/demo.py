@@ -7,15 +7,7 @@ from typing import Annotated
 
 import typer
 
-from resus.errors import ResusError
-
-
-def parse_subject_list(text: str) -> tuple[int, ...]:
-    """'0,1,2' -> (0, 1, 2); the last subject is held out."""
-    try:
-        return tuple(int(part) for part in text.split(","))
-    except ValueError:
-        raise ResusError(f"--subjects: expected a comma list of numbers, got {text!r}") from None
+from resus.cli.parsers import parse_numbers, settings_from_flags
 
 
 def register(app: typer.Typer) -> None:
@@ -37,12 +29,13 @@ def register(app: typer.Typer) -> None:
         """Simulate, reconstruct, reslice, train with and without RESUS, map vessels, report."""
         from resus.experiments.demo import DemoSettings, run_demo
 
-        settings = DemoSettings(
-            subjects=parse_subject_list(subjects),
-            image_size=image_size,
-            sweep_length=sweep_length,
-            max_epochs=epochs,
-            seed=seed,
+        settings = settings_from_flags(
+            DemoSettings,
+            subjects=("--subjects", parse_numbers(subjects, "--subjects", kind=int)),
+            image_size=("--image-size", image_size),
+            sweep_length=("--sweep-length", sweep_length),
+            max_epochs=("--epochs", epochs),
+            seed=("--seed", seed),
         )
         result = run_demo(out, settings)
         summary = result.summary

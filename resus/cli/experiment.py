@@ -9,32 +9,21 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.parsers import flag_error, parse_index_set, parse_names
 from resus.errors import ResusError
 
 REGIME_HELP = "Comma list of us, imagenet, aug, resus (imagenet needs --weights)."
 
 
-def parse_subject_count(text: str) -> list[int]:
-    """'4' -> subjects 0-3; '0-5' or '0,2,5' -> those subjects (see `simulate`)."""
-    from resus.cli.simulate import parse_subjects
-
-    if text.strip().isdigit():
-        count = int(text)
-        if count < 2:
-            raise ResusError(f"--subjects: leave-one-subject-out needs at least 2, got {text!r}")
-        return list(range(count))
-    return parse_subjects(text)
-
-
-def parse_regimes(text: str) -> list[str]:
-    """'us,aug,resus' -> regime names, each checked."""
-    from resus.segmentation.loso import REGIMES
-
-    regimes = [part.strip() for part in text.split(",") if part.strip()]
-    unknown = [r for r in regimes if r not in REGIMES]
-    if not regimes or unknown:
-        raise ResusError(f"--regimes: expected a comma list of {', '.join(REGIMES)}, got {text!r}")
-    return list(dict.fromkeys(regimes))
+def parse_subjects(text: str) -> list[int]:
+    """'K' -> subjects 0..K-1; '0-5' or '0,2,5' -> those subjects; at least two."""
+    if text.strip().isdecimal():
+        subjects = list(range(int(text)))
+    else:
+        subjects = parse_index_set(text, "--subjects")
+    if len(subjects) < 2:
+        raise ResusError(f"--subjects: leave-one-subject-out needs at least 2, got {text!r}")
+    return subjects
 
 
 def _options(out: Path, data: Path | None, seed: int, device: str, jobs: int):
@@ -70,10 +59,11 @@ def register(app: typer.Typer) -> None:
         """Table I: train on phantom scan A (frames vs frames + reslices), test on scan B."""
         from resus.experiments.tables import get_experiment_preset, run_phantom_experiment
 
-        settings = get_experiment_preset(preset)
+        with flag_error("--preset"):
+            settings = get_experiment_preset(preset)
         results = run_phantom_experiment(settings, _options(out, data, seed, device, jobs))
-        for trained_on, row in results["iou"].items():
-            cells = ", ".join(f"{test} {iou['mean']:.3f}" for test, iou in row.items())
+        for trained_on, row in results.iou.items():
+            cells = ", ".join(f"{test} {iou.mean:.3f}" for test, iou in row.items())
             typer.echo(f"trained on {trained_on}: tested on {cells}")
         typer.echo(f"wrote {out / 'report.md'}")
 
@@ -98,17 +88,18 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Table II: leave-one-subject-out over simulated subjects, per regime, with t-tests."""
         from resus.experiments.tables import get_experiment_preset, run_subjects_experiment
+        from resus.segmentation.loso import REGIMES
 
-        settings = get_experiment_preset(preset)
-        chosen = None if subjects is None else parse_subject_count(subjects)
+        with flag_error("--preset"):
+            settings = get_experiment_preset(preset)
         results = run_subjects_experiment(
             settings,
             _options(out, data, seed, device, jobs),
-            chosen,
-            parse_regimes(regimes),
+            None if subjects is None else parse_subjects(subjects),
+            parse_names(regimes, "--regimes", REGIMES),
             weights,
         )
-        for regime, entry in results["loso"]["regimes"].items():
+        for regime, entry in results.loso.to_dict()["regimes"].items():
             if entry["status"] == "run":
                 typer.echo(f"{regime}: mean IoU {entry['mean_over_subjects']['mean']:.3f}")
             else:

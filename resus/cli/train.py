@@ -8,6 +8,9 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.parsers import flag_error, parse_choice
+from resus.errors import ResusError
+
 
 def register(app: typer.Typer) -> None:
     """Add the `train` command to the root app."""
@@ -40,24 +43,32 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Train a U-Net on labelled sweeps (plus reslices of the training subjects)."""
         from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
-        from resus.segmentation.loso import make_split, run_regime, unavailable_reason
+        from resus.segmentation.loso import REGIMES, make_split, run_regime
         from resus.segmentation.model import resolve_device
         from resus.segmentation.presets import get_preset
 
-        settings = get_preset(preset)
-        torch_device = resolve_device(device)
-        frames = load_sweep_frames(sweeps)
-        reslice_sets = load_reslice_sets(reslices or [])
+        parse_choice(regime, "--regime", REGIMES)
+        if regime == "resus" and not reslices:
+            raise ResusError("--regime resus: no reslices given (--reslices)")
+        if regime == "imagenet" and weights is None:  # never silently replaced by random ones
+            raise ResusError("--regime imagenet: no encoder weights file given (--weights)")
+        with flag_error("--preset"):
+            settings = get_preset(preset)
+        with flag_error("--device"):
+            torch_device = resolve_device(device)
+        with flag_error("--sweeps"):
+            frames = load_sweep_frames(sweeps)
+        with flag_error("--reslices"):
+            reslice_sets = load_reslice_sets(reslices or [])
+        split = make_split(frames, reslice_sets, test_subject, settings.validation_fraction)
+        if regime == "resus" and not split.reslices:
+            raise ResusError(
+                f"--regime resus: every given reslice belongs to the test subject {test_subject!r}"
+                " (--test-subject), so none is left to train on"
+            )
         out.mkdir(parents=True, exist_ok=True)
         metrics_path = out / "metrics.json"
         metrics = {"regime": regime, "preset": preset, "seed": seed, "test_subject": test_subject}
-        reason = unavailable_reason(regime, reslice_sets, weights)
-        if reason is not None:
-            metrics.update(status="not run", reason=reason)
-            metrics_path.write_text(json.dumps(metrics, indent=2) + "\n")
-            typer.echo(f"regime {regime} not run: {reason}; wrote {metrics_path}")
-            return
-        split = make_split(frames, reslice_sets, test_subject, settings.validation_fraction)
         run = run_regime(
             split,
             regime,
@@ -67,6 +78,7 @@ def register(app: typer.Typer) -> None:
             encoder_weights=weights,
             out_dir=out,
         )
+        summary = run.training.summary()
         metrics.update(
             status="run",
             device=str(torch_device),
@@ -75,14 +87,14 @@ def register(app: typer.Typer) -> None:
             validation_images=run.training.config["validation_images"],
             test_iou=None if run.test_iou is None else run.test_iou.to_dict(),
             checkpoint=str(out / "checkpoint.pt"),
-            training=run.training.summary(),
+            training=summary.to_dict(),
         )
         metrics_path.write_text(json.dumps(metrics, indent=2) + "\n")
-        best = run.training.history[run.training.best_epoch - 1]
         typer.echo(
-            f"best epoch {run.training.best_epoch}/{len(run.training.history)}: validation loss "
-            f"{best.validation_loss:.4f}, validation IoU {best.validation_iou.mean:.3f} "
-            f"({run.training.images_per_second:.0f} images/s on {torch_device})"
+            f"best epoch {summary.best_epoch}/{summary.epochs_run}: validation loss "
+            f"{summary.best_validation_loss:.4f}, validation IoU "
+            f"{summary.best_validation_iou.mean:.3f} "
+            f"({summary.images_per_second:.0f} images/s on {torch_device})"
         )
         if run.test_iou is not None:
             iou = run.test_iou

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.parsers import flag_error, settings_from_flags
 from resus.errors import ResusError
 
 
@@ -50,11 +51,14 @@ def register(app: typer.Typer) -> None:
 
         if (model is None) == (not labels_from_sweep):
             raise ResusError("give exactly one of --model CKPT or --labels-from-sweep")
-        job = VesselJob(
-            target=target,
-            needle=NeedleSettings(angle_deg=needle_angle, min_clearance=clearance),
-            map=VesselMapSettings(spacing=spacing),
+        needle = settings_from_flags(
+            NeedleSettings,
+            angle_deg=("--needle-angle", needle_angle),
+            min_clearance=("--clearance", clearance),
         )
+        vessel_map = settings_from_flags(VesselMapSettings, spacing=("--spacing", spacing))
+        with flag_error("--target"):
+            job = VesselJob(target=target, needle=needle, map=vessel_map)
         if not sweep_path.is_file():
             raise ResusError("no such sweep file", sweep_path)
         if model is not None and not model.is_file():
@@ -73,14 +77,13 @@ def register(app: typer.Typer) -> None:
             "sweep": str(sweep_path),
             "labels": "sweep" if labels_from_sweep else f"model {model}",
         }
-        metrics = map_vessels(sweep, labels, scene, out, sources, job, progress=True)
-        typer.echo(f"anatomy: {metrics['anatomy']}")
-        if isinstance(metrics["scores"], dict):
-            for name, score in metrics["scores"].items():
-                msd = score["mean_surface_distance_mm"]
-                typer.echo(
-                    f"{name}: Dice {score['dice']:.3f}, mean surface distance "
-                    + ("n/a" if msd is None else f"{msd:.3f} mm, HD95 {score['hd95_mm']:.3f} mm")
-                )
-        typer.echo(f"needle ({target}): {metrics['needle']['reason']}")
-        typer.echo(f"wrote {len(metrics['files']) + 1} files to {out}")
+        result = map_vessels(sweep, labels, scene, out, sources, job, progress=True)
+        typer.echo(f"anatomy: {result.anatomy}")
+        for name, score in (result.scores or {}).items():
+            msd = score.mean_surface_distance_mm
+            typer.echo(
+                f"{name}: Dice {score.dice:.3f}, mean surface distance "
+                + ("n/a" if msd is None else f"{msd:.3f} mm, HD95 {score.hd95_mm:.3f} mm")
+            )
+        typer.echo(f"needle ({target}): {result.needle.reason}")
+        typer.echo(f"wrote {len(result.files) + 1} files to {out}")

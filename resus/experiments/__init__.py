@@ -1,1 +1,72 @@
-"""experiments."""
+"""The paper's experiments in simulation, and the end-to-end demo.
+
+- `data`: simulated scans of phantom subjects, reconstructed and resliced, cached per stage.
+- `tables`: the paper's Table I (phantom scans A and B) and Table II (leave-one-subject-out
+  over subjects), with their presets and run options.
+- `results`: what the experiments return, typed, with results.json's form (`to_dict()`).
+- `report`: the experiments' report.md, results.json and figures.
+- `demo`: every stage of the pipeline on built-in defaults into one folder; `demo_report`
+  renders its report.md from summary.json.
+"""
+
+from resus.experiments.data import (
+    Scan,
+    ScanSettings,
+    SubjectData,
+    prepare_scan,
+    prepare_scans,
+    prepare_subjects,
+)
+from resus.experiments.demo import DemoResult, DemoSettings, run_demo
+from resus.experiments.demo_report import render_report
+from resus.experiments.report import ReportFigures, write_phantom_report, write_subjects_report
+from resus.experiments.results import (
+    GeneralisationCheck,
+    IoUSummary,
+    PhantomResults,
+    RunRecord,
+    ScanImages,
+    SubjectsResults,
+)
+from resus.experiments.tables import (
+    EXPERIMENT_PRESETS,
+    PAPER_EXPERIMENT,
+    QUICK_EXPERIMENT,
+    ExperimentPreset,
+    RunOptions,
+    generalisation_check,
+    get_experiment_preset,
+    run_phantom_experiment,
+    run_subjects_experiment,
+)
+
+__all__ = [
+    "EXPERIMENT_PRESETS",
+    "PAPER_EXPERIMENT",
+    "QUICK_EXPERIMENT",
+    "DemoResult",
+    "DemoSettings",
+    "ExperimentPreset",
+    "GeneralisationCheck",
+    "IoUSummary",
+    "PhantomResults",
+    "ReportFigures",
+    "RunOptions",
+    "RunRecord",
+    "Scan",
+    "ScanImages",
+    "ScanSettings",
+    "SubjectData",
+    "SubjectsResults",
+    "generalisation_check",
+    "get_experiment_preset",
+    "prepare_scan",
+    "prepare_scans",
+    "prepare_subjects",
+    "render_report",
+    "run_demo",
+    "run_phantom_experiment",
+    "run_subjects_experiment",
+    "write_phantom_report",
+    "write_subjects_report",
+]

@@ -13,15 +13,17 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
+import multiprocessing
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from resus.acquisition.simulation import LinearSweepParameters
+from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
 from resus.reconstruction.compounding import ReconstructionSettings
 from resus.reslicing.reslice import ResliceSettings
+from resus.workers import available_cores, map_in_processes
+from sim.labels import LABEL_NAMES
 
 GRIDS = ("ransac", "aabb")
 RECORD = "scan.json"
@@ -37,7 +39,7 @@ class ScanSettings:
     """Probe image width (pixels)."""
     rows: int = 256
     """Probe image height (pixels)."""
-    sweep: LinearSweepParameters = field(default_factory=LinearSweepParameters)
+    sweep: LinearPattern = field(default_factory=LinearPattern)
     """The default linear sweep (a scan may replace it)."""
     grid: str = "ransac"
     """Volume grid: "ransac" (the paper's parallelepiped) or "aabb" (axis-aligned box)."""
@@ -48,11 +50,15 @@ class ScanSettings:
 
     def __post_init__(self) -> None:
         if self.grid not in GRIDS:
-            raise ResusError(f"grid must be one of {', '.join(GRIDS)}, got {self.grid!r}")
+            raise ResusError(
+                f"ScanSettings.grid must be one of {', '.join(GRIDS)}, got {self.grid!r}"
+            )
         if not self.spacing > 0:
-            raise ResusError(f"voxel spacing must be positive, got {self.spacing}")
+            raise ResusError(f"ScanSettings.spacing must be positive, got {self.spacing}")
         if self.cols < 2 or self.rows < 2:
-            raise ResusError(f"probe image must be at least 2 x 2, got {self.cols} x {self.rows}")
+            raise ResusError(
+                f"ScanSettings.cols and rows must be at least 2, got {self.cols} x {self.rows}"
+            )
 
     def to_dict(self) -> dict:
         """JSON-able form (tuples become lists)."""
@@ -66,7 +72,7 @@ class Scan:
     name: str
     """Folder name under the data folder."""
     subject: int | None
-    sweep: LinearSweepParameters | None = None
+    sweep: LinearPattern | None = None
     """None: the settings' default sweep."""
 
 
@@ -104,11 +110,6 @@ def prepare_scans(
     progress: bool = True,
 ) -> list[SubjectData]:
     """Simulate, reconstruct and reslice every scan (cached), `jobs` processes at a time."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    from tqdm import tqdm
-
     settings = settings or ScanSettings()
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
@@ -121,31 +122,20 @@ def prepare_scans(
         for scan in scans
         if stale_stages(folder / scan.name, scan, settings)
     ]
-    bar = {"total": len(work), "desc": "scans", "unit": "scan", "disable": not progress}
-    if jobs <= 1 or len(work) <= 1:
-        for job in tqdm(work, **bar):
-            prepare_scan(*job[:3])
-    else:
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(jobs, len(work)), mp_context=context) as pool:
-            list(tqdm(pool.map(_prepare_in_worker, work), **bar))
+    map_in_processes(_prepare_in_worker, work, jobs, "scans", "scan", progress=progress)
     return [_with_subject(_files(folder / scan.name)) for scan in scans]
 
 
 def _prepare_in_worker(job: tuple[Path, Scan, ScanSettings, int]) -> None:
-    """`prepare_scan` in a worker process, its numba threads a fair share of the cores."""
-    import numba
-
+    """`prepare_scan` of one of `jobs` parallel scans; in a worker process (not when
+    `map_in_processes` runs it in this one), its numba threads a fair share of the cores."""
     out, scan, settings, jobs = job
-    numba.set_num_threads(max(1, min(numba.config.NUMBA_NUM_THREADS, available_cores() // jobs)))
+    if multiprocessing.parent_process() is not None:
+        import numba
+
+        share = available_cores() // jobs
+        numba.set_num_threads(max(1, min(numba.config.NUMBA_NUM_THREADS, share)))
     prepare_scan(out, scan, settings)
-
-
-def available_cores() -> int:
-    """CPU cores this process may run on."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
 
 
 def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:
@@ -262,7 +252,7 @@ def _reconstruct(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
 
 def _reslice(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
     from resus.reconstruction.io import read_volume
-    from resus.reslicing.dataset import DEFAULT_LABEL_NAMES, ResliceWriter
+    from resus.reslicing.dataset import ResliceWriter
     from resus.reslicing.reslice import reslice_volume
     from resus.sweep.io import SweepReader
 
@@ -271,7 +261,7 @@ def _reslice(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
     with SweepReader(data.sweep) as reader:
         subject = reader.subject
     with ResliceWriter(
-        data.reslices, settings.reslice, str(data.volume), subject, names or DEFAULT_LABEL_NAMES
+        data.reslices, settings.reslice, str(data.volume), subject, names or LABEL_NAMES
     ) as writer:
         for reslice in reslice_volume(volume, labels, grid, settings.reslice):
             writer.append(reslice)

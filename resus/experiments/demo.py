@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from resus.acquisition.simulation import LinearSweepParameters
+from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
 from resus.experiments.data import ScanSettings, SubjectData, prepare_subjects
 from resus.experiments.demo_report import render_report
@@ -26,6 +26,7 @@ from sim.robot.scene_config import SceneConfig
 
 if TYPE_CHECKING:  # torch is imported only when training starts
     from resus.segmentation.loso import RegimeRun
+    from resus.vessels.pipeline import VesselMapResult
 
 DEMO_REGIMES = ("us", "resus")
 """Frames only, against frames plus reslices: the comparison RESUS is about."""
@@ -53,19 +54,19 @@ class DemoSettings:
     def __post_init__(self) -> None:
         if len(set(self.subjects)) != len(self.subjects) or len(self.subjects) < 2:
             raise ResusError(
-                f"--subjects must be two or more distinct numbers, got {self.subjects}"
+                f"DemoSettings.subjects must be two or more distinct numbers, got {self.subjects}"
             )
         if min(self.subjects) < 0:
-            raise ResusError(f"--subjects must not be negative, got {self.subjects}")
+            raise ResusError(f"DemoSettings.subjects must not be negative, got {self.subjects}")
         if self.image_size < 32:
-            raise ResusError(f"--image-size must be at least 32, got {self.image_size}")
+            raise ResusError(f"DemoSettings.image_size must be at least 32, got {self.image_size}")
         if not self.sweep_length > 0:
-            raise ResusError(f"--sweep-length must be positive, got {self.sweep_length}")
+            raise ResusError(f"DemoSettings.sweep_length must be positive, got {self.sweep_length}")
         if self.max_epochs < 1:
-            raise ResusError(f"--epochs must be at least 1, got {self.max_epochs}")
+            raise ResusError(f"DemoSettings.max_epochs must be at least 1, got {self.max_epochs}")
 
     def scan_settings(self) -> ScanSettings:
-        sweep = LinearSweepParameters(start=(0.0, -self.sweep_length / 2), length=self.sweep_length)
+        sweep = LinearPattern(start=(0.0, -self.sweep_length / 2), length=self.sweep_length)
         return ScanSettings(cols=self.image_size, rows=self.image_size, sweep=sweep)
 
 
@@ -174,7 +175,9 @@ def _segment(run: RegimeRun, sweep: Sweep) -> np.ndarray:
     return predict(run.training.model, sweep.frames, image_size=image_size)
 
 
-def _map_vessels(folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray]) -> dict:
+def _map_vessels(
+    folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray]
+) -> dict[str, VesselMapResult]:
     """Vessel maps of the held-out sweep from its true labels and from each model's."""
     from resus.vessels.pipeline import map_vessels
 
@@ -196,7 +199,8 @@ def _pictures(folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray]) 
     """The held-out volume's slices, its reslices and predictions on a few of its frames."""
     from resus.experiments.report import save_prediction_figure
     from resus.experiments.tables import Example, example_index
-    from resus.reconstruction.io import read_volume, save_slices_png
+    from resus.reconstruction.figures import save_slices_png
+    from resus.reconstruction.io import read_volume
     from resus.reslicing.dataset import ResliceDataset
     from resus.reslicing.sheet import save_contact_sheet
 
@@ -266,7 +270,7 @@ def _summary(
     settings: DemoSettings,
     data: list[SubjectData],
     runs: dict[str, RegimeRun],
-    vessels: dict[str, dict],
+    vessels: dict[str, VesselMapResult],
     pictures: list[str],
     seconds: dict[str, float],
 ) -> dict:
@@ -284,12 +288,14 @@ def _summary(
         "best_epoch": {regime: run.training.best_epoch for regime, run in runs.items()},
         "vessels": {
             source: {
-                "scores": metrics["scores"],
-                "needle": metrics["needle"],
-                "needle_truth": metrics.get("needle_truth"),
-                "anatomy": metrics["anatomy"],
+                "scores": result.scores_to_dict(),
+                "needle": result.needle.to_dict(),
+                "needle_truth": None
+                if result.needle_truth is None
+                else result.needle_truth.to_dict(),
+                "anatomy": result.anatomy,
             }
-            for source, metrics in vessels.items()
+            for source, result in vessels.items()
         },
         "files": {
             "pictures": pictures,
@@ -302,8 +308,8 @@ def _summary(
             ],
             "meshes": [
                 f"vessels/{source}/{name}"
-                for source, metrics in vessels.items()
-                for name in metrics["files"]
+                for source, result in vessels.items()
+                for name in result.files
                 if name.endswith((".stl", ".ply", ".glb"))
             ],
             "volumes": [

@@ -8,7 +8,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-VESSELS = ("artery", "vein")
+from sim.labels import VESSEL_CLASSES
+
+VESSELS = tuple(VESSEL_CLASSES)
 SOURCE_TITLES = {
     "ground_truth": "true labels",
     "us": "U-Net, frames only",

@@ -1,23 +1,39 @@
 """Reports of the experiments: report.md (tables, tests, settings), results.json, PNG figures.
 
 Every number in a report's tables is read from the results dictionary that is also written
-as results.json, rounded to three decimals, so the two always agree.
+as results.json (the results' `to_dict()`), rounded to three decimals, so the two always agree.
 """
 
 from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from resus.experiments.results import PhantomResults, SubjectsResults
 from resus.segmentation.curves import plot_training_curves
+
+if TYPE_CHECKING:
+    from resus.experiments.tables import Example
+    from resus.segmentation.train import TrainingResult
 
 PREDICTIONS_PNG = "predictions.png"
 
 
-def save_prediction_figure(path: Path, examples: Sequence, title: str) -> Path:
+@dataclass(frozen=True)
+class ReportFigures:
+    """What a report's pictures show: example images with each model's prediction, and the
+    training history of each model (by name)."""
+
+    examples: Sequence[Example]
+    histories: Mapping[str, TrainingResult]
+
+
+def save_prediction_figure(path: Path, examples: Sequence[Example], title: str) -> Path:
     """One row per example: image, truth, then each prediction (artery red, vein blue)."""
     from matplotlib.figure import Figure
 
@@ -49,7 +65,7 @@ def save_prediction_figure(path: Path, examples: Sequence, title: str) -> Path:
     return path
 
 
-def save_curves(out: Path, histories: Mapping[str, object], subject: str) -> list[str]:
+def save_curves(out: Path, histories: Mapping[str, TrainingResult], subject: str) -> list[str]:
     """Training curves of each named run as `curves_NAME.png`; the file names."""
     names = []
     for name, training in histories.items():
@@ -60,9 +76,15 @@ def save_curves(out: Path, histories: Mapping[str, object], subject: str) -> lis
     return names
 
 
-def _json(out: Path, results: dict) -> None:
+def _write_json_and_figures(
+    out: Path, results: dict, figures: ReportFigures, titles: tuple[str, str]
+) -> list[str]:
+    """results.json, predictions.png and the training curves, titled (predictions, curves);
+    the curves' file names."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(results, indent=2) + "\n")
+    save_prediction_figure(out / PREDICTIONS_PNG, figures.examples, titles[0])
+    return save_curves(out, figures.histories, titles[1])
 
 
 def _settings_section(results: dict) -> list[str]:
@@ -94,12 +116,12 @@ def _figures(names: Sequence[str]) -> list[str]:
     return [f"![{name}]({name})" for name in names]
 
 
-def write_phantom_report(out: Path, results: dict, examples: Sequence, histories: dict) -> Path:
+def write_phantom_report(out: Path, phantom: PhantomResults, figures: ReportFigures) -> Path:
     """report.md, results.json and figures of the phantom experiment."""
     out = Path(out)
-    _json(out, results)
-    save_prediction_figure(out / PREDICTIONS_PNG, examples, "phantom scan B, trained on scan A")
-    curves = save_curves(out, histories, "trained on phantom scan A")
+    results = phantom.to_dict()
+    titles = ("phantom scan B, trained on scan A", "trained on phantom scan A")
+    curves = _write_json_and_figures(out, results, figures, titles)
     iou = results["iou"]
     tests = list(next(iter(iou.values())))
     seeds = results["seeds"]
@@ -167,14 +189,14 @@ def _p(value: float | None) -> str:
     return "n/a" if value is None else f"{value:.3g}"
 
 
-def write_subjects_report(out: Path, results: dict, examples: Sequence, histories: dict) -> Path:
+def write_subjects_report(out: Path, subjects: SubjectsResults, figures: ReportFigures) -> Path:
     """report.md, results.json and figures of the leave-one-subject-out experiment."""
     out = Path(out)
-    _json(out, results)
+    results = subjects.to_dict()
     loso = results["loso"]
     first = loso["subjects"][0]
-    save_prediction_figure(out / PREDICTIONS_PNG, examples, f"trained without subject {first}")
-    curves = save_curves(out, histories, f"held-out subject {first}")
+    titles = (f"trained without subject {first}", f"held-out subject {first}")
+    curves = _write_json_and_figures(out, results, figures, titles)
     run = {r: e for r, e in loso["regimes"].items() if e["status"] == "run"}
     lines = [
         f"# Subjects experiment (Table II analogue), preset {results['preset']['name']}",

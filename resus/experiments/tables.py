@@ -18,20 +18,31 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from resus.acquisition.simulation import LinearSweepParameters
+from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
-from resus.experiments.data import (
-    Scan,
-    ScanSettings,
-    available_cores,
-    prepare_scans,
-    prepare_subjects,
+from resus.experiments.data import Scan, ScanSettings, prepare_scans, prepare_subjects
+from resus.experiments.results import (
+    GeneralisationCheck,
+    IoUSummary,
+    PhantomResults,
+    RunRecord,
+    ScanImages,
+    SubjectsResults,
 )
 from resus.reslicing.reslice import ResliceSettings
+from resus.segmentation.metrics import VesselIoU
 from resus.segmentation.presets import PAPER, QUICK, TrainingPreset
+from resus.workers import available_cores
+from sim.labels import ARTERY, VEIN
+
+if TYPE_CHECKING:  # torch is imported only when training starts
+    import torch
+
+    from resus.segmentation.loso import LosoResult
 
 
 @dataclass(frozen=True)
@@ -43,7 +54,7 @@ class ExperimentPreset:
     scans: ScanSettings
     subjects: tuple[int, ...]
     """Subjects of the leave-one-subject-out experiment."""
-    phantom_scans: tuple[LinearSweepParameters, LinearSweepParameters]
+    phantom_scans: tuple[LinearPattern, LinearPattern]
     """Scan A (training) and scan B (test) of the phantom experiment."""
     repeats: int = 3
     """Phantom experiment: training seeds per table cell (seed, seed + 1, ...)."""
@@ -59,13 +70,11 @@ class ExperimentPreset:
         }
 
 
-def _phantom_scans(frame_rate: float) -> tuple[LinearSweepParameters, LinearSweepParameters]:
+def _phantom_scans(frame_rate: float) -> tuple[LinearPattern, LinearPattern]:
     """Scan A along the vessels from the proximal end; scan B shifted 4 mm laterally, starting
     5 mm further on, tilted 10 degrees about the array axis."""
-    scan_a = LinearSweepParameters(frame_rate=frame_rate)
-    scan_b = LinearSweepParameters(
-        start=(0.004, -0.035), length=0.07, tilt_deg=10.0, frame_rate=frame_rate
-    )
+    scan_a = LinearPattern(frame_rate=frame_rate)
+    scan_b = LinearPattern(start=(0.004, -0.035), length=0.07, tilt_deg=10.0, frame_rate=frame_rate)
     return scan_a, scan_b
 
 
@@ -75,7 +84,7 @@ QUICK_EXPERIMENT = ExperimentPreset(
     scans=ScanSettings(
         cols=128,
         rows=128,
-        sweep=LinearSweepParameters(frame_rate=15.0),
+        sweep=LinearPattern(frame_rate=15.0),
         spacing=0.5e-3,
         reslice=ResliceSettings(angles_deg=(-30.0, -15.0, 0.0, 15.0, 30.0), step=10, size=128),
     ),
@@ -102,9 +111,7 @@ EXPERIMENT_PRESETS = {p.name: p for p in (QUICK_EXPERIMENT, PAPER_EXPERIMENT)}
 def get_experiment_preset(name: str) -> ExperimentPreset:
     """The experiment preset called `name`, or a ResusError listing the choices."""
     if name not in EXPERIMENT_PRESETS:
-        raise ResusError(
-            f"--preset: unknown preset {name!r}; choose one of {', '.join(EXPERIMENT_PRESETS)}"
-        )
+        raise ResusError(f"unknown preset {name!r}; choose one of {', '.join(EXPERIMENT_PRESETS)}")
     return EXPERIMENT_PRESETS[name]
 
 
@@ -145,8 +152,8 @@ def set_torch_threads() -> int:
 
 def example_index(labels: np.ndarray) -> int:
     """The image whose smaller vessel is largest (both vessels well in view)."""
-    artery = (labels == 1).reshape(len(labels), -1).sum(axis=1)
-    vein = (labels == 2).reshape(len(labels), -1).sum(axis=1)
+    artery = (labels == ARTERY).reshape(len(labels), -1).sum(axis=1)
+    vein = (labels == VEIN).reshape(len(labels), -1).sum(axis=1)
     return int(np.argmax(np.minimum(artery, vein)))
 
 
@@ -163,9 +170,24 @@ PHANTOM_TESTS = ("frames", "frames + reslices")
 """Phantom table columns: what it is scored on (scan B)."""
 
 
-def run_phantom_experiment(preset: ExperimentPreset, options: RunOptions) -> dict:
-    """Table I analogue; writes the report to `options.out` and returns results.json's data."""
-    from resus.experiments.report import write_phantom_report
+def _run_record(
+    options: RunOptions, device: torch.device, threads: int, start: float, prepared: float
+) -> RunRecord:
+    """How the run went: data time from `start` to `prepared`, training time until now."""
+    return RunRecord(
+        device=str(device),
+        torch_threads=threads,
+        command=options.command,
+        data_folder=str(options.data),
+        data_seconds=round(prepared - start, 1),
+        training_seconds=round(time.perf_counter() - prepared, 1),
+    )
+
+
+def run_phantom_experiment(preset: ExperimentPreset, options: RunOptions) -> PhantomResults:
+    """Table I analogue; writes the report to `options.out` and returns what results.json
+    holds (`.to_dict()`)."""
+    from resus.experiments.report import ReportFigures, write_phantom_report
     from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
     from resus.segmentation.loso import Split, hold_out_tail, pooled_iou, run_regime
     from resus.segmentation.model import resolve_device
@@ -195,7 +217,7 @@ def run_phantom_experiment(preset: ExperimentPreset, options: RunOptions) -> dic
         _example("scan B frame", frame_example),
         _example("scan B reslice", reslice_example),
     ]
-    table: dict[str, dict[str, list[dict]]] = {}
+    table: dict[str, dict[str, list[VesselIoU]]] = {}
     histories = {}
     for regime, trained_on in PHANTOM_TRAINING.items():
         table[trained_on] = {test: [] for test in tests}
@@ -209,49 +231,31 @@ def run_phantom_experiment(preset: ExperimentPreset, options: RunOptions) -> dic
                 progress=options.progress,
             )
             for test, sets in tests.items():
-                iou = pooled_iou(run.training.model, sets, preset.training)
-                table[trained_on][test].append(iou.to_dict())
+                table[trained_on][test].append(
+                    pooled_iou(run.training.model, sets, preset.training)
+                )
             if repeat == 0:
                 histories[trained_on] = run.training
                 _predict_examples(examples, trained_on, run.training.model, preset.training)
-    results = {
-        "experiment": "phantom",
-        "preset": preset.to_dict(),
-        "seeds": [options.seed + r for r in range(preset.repeats)],
-        "device": str(device),
-        "torch_threads": threads,
-        "command": options.command,
-        "data_folder": str(options.data),
-        "scans": {
-            name: {
-                "subject": d.subject,
-                "frames": sum(len(s) for s in frames[name]),
-                "reslices": sum(len(s) for s in reslices[name]),
-            }
+    results = PhantomResults(
+        preset=preset,
+        seeds=tuple(options.seed + r for r in range(preset.repeats)),
+        scans={
+            name: ScanImages(
+                d.subject, sum(len(s) for s in frames[name]), sum(len(s) for s in reslices[name])
+            )
             for name, d in zip("AB", data, strict=True)
         },
-        "training_images": {"frames": len(train[0]), "validation_frames": len(validation[0])},
-        "iou": {
-            trained_on: {test: _summarise(runs) for test, runs in row.items()}
+        training_frames=len(train[0]),
+        validation_frames=len(validation[0]),
+        iou={
+            trained_on: {test: IoUSummary.of(runs) for test, runs in row.items()}
             for trained_on, row in table.items()
         },
-        "seconds": {
-            "data": round(prepared - start, 1),
-            "training": round(time.perf_counter() - prepared, 1),
-        },
-    }
-    write_phantom_report(options.out, results, examples, histories)
+        run=_run_record(options, device, threads, start, prepared),
+    )
+    write_phantom_report(options.out, results, ReportFigures(examples, histories))
     return results
-
-
-def _summarise(runs: Sequence[dict]) -> dict:
-    """Per-seed IoU dicts -> their mean and standard deviation per metric, and the runs."""
-    summary = {"runs": list(runs)}
-    for metric in ("artery", "vein", "mean"):
-        values = [run[metric] for run in runs]
-        summary[metric] = float(np.mean(values))
-        summary[f"{metric}_std"] = float(np.std(values))
-    return summary
 
 
 def _example(title: str, images) -> Example:
@@ -274,18 +278,19 @@ def run_subjects_experiment(
     subjects: Sequence[int] | None = None,
     regimes: Sequence[str] = ("us", "imagenet", "aug", "resus"),
     encoder_weights: Path | None = None,
-) -> dict:
-    """Table II analogue; writes the report to `options.out` and returns results.json's data."""
-    from resus.experiments.report import write_subjects_report
+) -> SubjectsResults:
+    """Table II analogue; writes the report to `options.out` and returns what results.json
+    holds (`.to_dict()`)."""
+    from resus.experiments.report import ReportFigures, write_subjects_report
     from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
     from resus.segmentation.loso import RegimeRun, run_loso, subjects_of
     from resus.segmentation.model import resolve_device
 
     subjects = tuple(preset.subjects if subjects is None else subjects)
     if len(subjects) < 2:
-        raise ResusError(f"--subjects: leave-one-subject-out needs at least 2, got {subjects}")
+        raise ResusError(f"leave-one-subject-out needs at least 2 subjects, got {subjects}")
     if encoder_weights is not None and not Path(encoder_weights).is_file():
-        raise ResusError("--weights: no such file", encoder_weights)
+        raise ResusError("no such encoder weights file", encoder_weights)
     start = time.perf_counter()
     data = prepare_subjects(
         options.data, subjects, preset.scans, jobs=options.jobs, progress=options.progress
@@ -299,15 +304,14 @@ def run_subjects_experiment(
     training = preset.training
     example_set = next(s for s in frames if s.subject == ids[0])
     examples = [_example(f"held-out subject {ids[0]}, frame", example_set)]
-    validation_iou: dict[str, dict[str, dict]] = {}
+    validation_iou: dict[str, dict[str, VesselIoU]] = {}
     training_images: dict[str, dict[str, int]] = {}
     histories = {}
 
     def record(regime: str, subject: str, run: RegimeRun) -> None:
         """Keep each run's best validation IoU and training size; curves and example
         predictions of the first held-out subject."""
-        best = run.training.history[run.training.best_epoch - 1]
-        validation_iou.setdefault(regime, {})[subject] = best.validation_iou.to_dict()
+        validation_iou.setdefault(regime, {})[subject] = run.training.best.validation_iou
         training_images.setdefault(regime, {})[subject] = run.training.config["train_images"]
         if subject == ids[0]:
             histories[regime] = run.training
@@ -324,29 +328,20 @@ def run_subjects_experiment(
         progress=options.progress,
         on_run=record,
     )
-    results = {
-        "experiment": "subjects",
-        "preset": preset.to_dict(),
-        "seed": options.seed,
-        "device": str(device),
-        "torch_threads": threads,
-        "command": options.command,
-        "data_folder": str(options.data),
-        "subject_numbers": list(subjects),
-        "images_per_subject": {
-            s.subject: {"frames": len(s), "reslices": len(r)}
-            for s, r in zip(frames, reslices, strict=True)
-        },
-        "loso": result.to_dict(),
-        "validation_iou": validation_iou,
-        "training_images": training_images,
-        "generalisation": generalisation_check(result.to_dict(), validation_iou),
-        "seconds": {
-            "data": round(prepared - start, 1),
-            "training": round(time.perf_counter() - prepared, 1),
-        },
-    }
-    write_subjects_report(options.out, results, examples, histories)
+    results = SubjectsResults(
+        preset=preset,
+        seed=options.seed,
+        subject_numbers=subjects,
+        images=tuple(
+            ScanImages(s.subject, len(s), len(r)) for s, r in zip(frames, reslices, strict=True)
+        ),
+        loso=result,
+        validation_iou=validation_iou,
+        training_images=training_images,
+        generalisation=generalisation_check(result, validation_iou),
+        run=_run_record(options, device, threads, start, prepared),
+    )
+    write_subjects_report(options.out, results, ReportFigures(examples, histories))
     return results
 
 
@@ -354,25 +349,26 @@ GAP_THRESHOLD = 0.05
 """Mean-IoU drop (or spread over subjects) above which subjects count as really different."""
 
 
-def generalisation_check(loso: dict, validation_iou: dict[str, dict[str, dict]]) -> dict:
+def generalisation_check(
+    loso: LosoResult, validation_iou: dict[str, dict[str, VesselIoU]]
+) -> GeneralisationCheck | None:
     """Do the subjects differ enough that generalising across them is a real problem?
 
     Compares the `us` regime's IoU on its training subjects' held-out validation frames
-    (within-subject) with its IoU on the held-out subject, and the spread over subjects.
+    (within-subject) with its IoU on the held-out subject, and the spread over subjects;
+    None when the `us` regime did not run.
     """
-    entry = loso["regimes"].get("us", {})
-    if entry.get("status") != "run":
-        return {"verdict": "not checked: the us regime did not run"}
-    test = [row["mean"] for row in entry["iou"].values()]
-    within = [row["mean"] for row in validation_iou["us"].values()]
+    if "us" not in loso.iou:
+        return None
+    test = [iou.mean for iou in loso.iou["us"].values()]
+    within = [iou.mean for iou in validation_iou["us"].values()]
     gap = float(np.mean(within) - np.mean(test))
     spread = float(np.std(test))
-    hard = gap > GAP_THRESHOLD or spread > GAP_THRESHOLD
-    return {
-        "us_within_subject_iou": float(np.mean(within)),
-        "us_held_out_subject_iou": float(np.mean(test)),
-        "gap": gap,
-        "held_out_iou_std_over_subjects": spread,
-        "threshold": GAP_THRESHOLD,
-        "subjects_differ_enough": hard,
-    }
+    return GeneralisationCheck(
+        us_within_subject_iou=float(np.mean(within)),
+        us_held_out_subject_iou=float(np.mean(test)),
+        gap=gap,
+        held_out_iou_std_over_subjects=spread,
+        threshold=GAP_THRESHOLD,
+        subjects_differ_enough=gap > GAP_THRESHOLD or spread > GAP_THRESHOLD,
+    )

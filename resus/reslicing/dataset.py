@@ -29,7 +29,6 @@ import numpy as np
 from resus.errors import ResusError
 from resus.reslicing.reslice import Reslice, ResliceSettings
 from sim.labels import LABEL_NAMES
-from sim.labels import LABEL_NAMES as DEFAULT_LABEL_NAMES  # noqa: F401  (until callers move)
 
 SCHEMA = "resus.reslices/1"
 FLUSH_EVERY = 64

@@ -7,7 +7,6 @@ from pathlib import Path
 import numpy as np
 
 from resus.errors import ResusError
-from resus.indices import evenly_spaced  # noqa: F401  (until callers move)
 from resus.reslicing.reslice import Reslice
 from sim.labels import tint_labels
 

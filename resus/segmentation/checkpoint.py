@@ -12,7 +12,7 @@ import torch
 from torch import nn
 
 from resus.errors import ResusError
-from resus.segmentation.model import build_model
+from resus.segmentation.model import build_model, load_torch_file
 from resus.segmentation.presets import ModelConfig
 
 SCHEMA = "resus.segmentation-checkpoint/1"
@@ -30,13 +30,9 @@ def save_checkpoint(path: Path, model: nn.Module, config: dict) -> None:
 
 def load_checkpoint(path: Path, device: torch.device | str = "cpu") -> tuple[nn.Module, dict]:
     """The model (in eval mode, on `device`) and config saved at `path`."""
-    path = Path(path)
-    if not path.is_file():
-        raise ResusError("checkpoint not found", path)
-    try:
-        saved = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as error:
-        raise ResusError(f"not a readable checkpoint ({type(error).__name__})", path) from None
+    saved = load_torch_file(
+        path, missing="checkpoint not found", unreadable="not a readable checkpoint"
+    )
     if not isinstance(saved, dict) or saved.get("schema") != SCHEMA:
         raise ResusError(f"not a {SCHEMA} checkpoint", path)
     config = saved["config"]

@@ -4,8 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from resus.segmentation.train import EpochRecord
+from resus.segmentation.metrics import IOU_METRICS
+
+if TYPE_CHECKING:  # the curves need matplotlib only, not torch
+    from resus.segmentation.train import EpochRecord
 
 
 def plot_training_curves(
@@ -20,7 +24,7 @@ def plot_training_curves(
     losses.plot(epochs, [r.train_loss for r in history], "o-", label="train")
     losses.plot(epochs, [r.validation_loss for r in history], "o-", label="validation")
     losses.set(xlabel="epoch", ylabel="loss", title="loss")
-    for name in ("artery", "vein", "mean"):
+    for name in IOU_METRICS:
         values = [r.validation_iou.to_dict()[name] for r in history]
         ious.plot(epochs, values, "o-", label=name)
     ious.set(xlabel="epoch", ylabel="IoU", title="validation IoU", ylim=(0, 1))

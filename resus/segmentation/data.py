@@ -17,8 +17,8 @@ import torch
 from torch.utils.data import Dataset
 
 from resus.errors import ResusError
+from sim.labels import LABEL_NAMES
 
-CLASS_NAMES: tuple[str, ...] = ("background", "artery", "vein")
 INTENSITY_MEAN = 0.449
 INTENSITY_STD = 0.226
 """Grey-level normalisation: ImageNet's channel means and deviations averaged, because a
@@ -50,8 +50,9 @@ class LabelledImages:
                 f"{where}: labels must be uint8 of the images' shape {images.shape}, "
                 f"got {labels.shape} {labels.dtype}"
             )
-        if labels.size and labels.max() >= len(CLASS_NAMES):
-            raise ResusError(f"{where}: label {labels.max()} is not one of 0, 1, 2")
+        if labels.size and labels.max() >= len(LABEL_NAMES):
+            classes = ", ".join(f"{value} {name}" for value, name in enumerate(LABEL_NAMES))
+            raise ResusError(f"{where}: label {labels.max()} is not a class ({classes})")
         if not self.subject:
             raise ResusError(f"{where}: subject id is empty")
         object.__setattr__(self, "images", images)

@@ -12,31 +12,33 @@ from pathlib import Path
 import numpy as np
 
 from resus.errors import ResusError
-from resus.segmentation.data import CLASS_NAMES, LabelledImages
+from resus.segmentation.data import LabelledImages
+from sim.labels import LABEL_NAMES
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 
 
-def expand_paths(paths: Sequence[Path], option: str) -> list[Path]:
-    """Files named in `paths`, each directory replaced by its sorted HDF5 files."""
+def expand_paths(paths: Sequence[Path], kind: str) -> list[Path]:
+    """Files named in `paths`, each directory replaced by its sorted HDF5 files; `kind` names
+    what the files hold (e.g. "sweep") in the errors."""
     files: list[Path] = []
     for path in map(Path, paths):
         if path.is_dir():
             found = sorted(p for p in path.iterdir() if p.suffix in HDF5_SUFFIXES)
             if not found:
-                raise ResusError(f"{option}: no .h5 files in directory", path)
+                raise ResusError(f"no .h5 {kind} files in directory", path)
             files += found
         elif path.is_file():
             files.append(path)
         else:
-            raise ResusError(f"{option}: no such file or directory", path)
+            raise ResusError(f"no such {kind} file or directory", path)
     return files
 
 
 def check_label_names(names: Sequence[str], path: Path) -> None:
     """Labels must mean what the network learns: 0 background, 1 artery, 2 vein."""
-    if tuple(names)[: len(CLASS_NAMES)] != CLASS_NAMES:
-        raise ResusError(f"label names {tuple(names)} do not start with {CLASS_NAMES}", path)
+    if tuple(names)[: len(LABEL_NAMES)] != LABEL_NAMES:
+        raise ResusError(f"label names {tuple(names)} do not start with {LABEL_NAMES}", path)
 
 
 def load_sweep_frames(paths: Sequence[Path]) -> list[LabelledImages]:
@@ -44,7 +46,7 @@ def load_sweep_frames(paths: Sequence[Path]) -> list[LabelledImages]:
     from resus.sweep.io import read_sweep
 
     sets = []
-    for path in expand_paths(paths, "--sweeps"):
+    for path in expand_paths(paths, "sweep"):
         sweep = read_sweep(path)
         if sweep.labels is None:
             raise ResusError("sweep has no labels: training needs labelled frames", path)
@@ -64,7 +66,7 @@ def load_reslice_sets(paths: Sequence[Path]) -> list[LabelledImages]:
     from resus.reslicing.dataset import ResliceDataset
 
     sets = []
-    for path in expand_paths(paths, "--reslices"):
+    for path in expand_paths(paths, "reslice"):
         with ResliceDataset(path) as dataset:
             subject = str(dataset.attrs.get("subject", ""))
             if not subject:

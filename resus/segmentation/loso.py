@@ -28,7 +28,12 @@ from resus.errors import ResusError
 from resus.segmentation.curves import plot_training_curves
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.inference import predict
-from resus.segmentation.metrics import VesselIoU, intersection_and_union
+from resus.segmentation.metrics import (
+    IOU_METRICS,
+    VesselIoU,
+    intersection_and_union,
+    no_counts,
+)
 from resus.segmentation.model import resolve_device
 from resus.segmentation.presets import TrainingPreset
 from resus.segmentation.stats import PairedTest, paired_t_test
@@ -121,9 +126,9 @@ def unavailable_reason(
     if regime not in REGIMES:
         raise ResusError(f"unknown regime {regime!r}; choose one of {', '.join(REGIMES)}")
     if regime == "imagenet" and encoder_weights is None:
-        return "no ImageNet encoder weights file given (--weights)"
+        return "no ImageNet encoder weights file given (encoder_weights is None)"
     if regime == "resus" and not reslices:
-        return "no reslices given (--reslices)"
+        return "no reslices given"
     return None
 
 
@@ -180,7 +185,7 @@ def pooled_iou(
     model: torch.nn.Module, sets: Sequence[LabelledImages], preset: TrainingPreset
 ) -> VesselIoU:
     """Vessel IoU of `model` over every image of `sets` (counts summed, then divided)."""
-    counts = np.zeros((2, 2), dtype=np.int64)
+    counts = no_counts()
     for images in sets:
         predicted = predict(
             model,
@@ -222,7 +227,7 @@ class LosoResult:
         """Paired t-tests of every pair of regimes that ran, on artery, vein and mean IoU."""
         self.comparisons = {}
         for a, b in itertools.combinations(self.iou, 2):
-            for metric in ("artery", "vein", "mean"):
+            for metric in IOU_METRICS:
                 scores_a = [self.iou[a][s].to_dict()[metric] for s in self.subjects]
                 scores_b = [self.iou[b][s].to_dict()[metric] for s in self.subjects]
                 self.comparisons[(a, b, metric)] = paired_t_test(scores_a, scores_b)
@@ -234,7 +239,7 @@ class LosoResult:
             table = {subject: iou.to_dict() for subject, iou in per_subject.items()}
             average = {
                 metric: float(np.mean([row[metric] for row in table.values()]))
-                for metric in ("artery", "vein", "mean")
+                for metric in IOU_METRICS
             }
             regimes[regime] = {"status": "run", "iou": table, "mean_over_subjects": average}
         for regime, reason in self.not_run.items():

@@ -13,7 +13,15 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-VESSEL_CLASSES: dict[str, int] = {"artery": 1, "vein": 2}
+from sim.labels import VESSEL_CLASSES
+
+IOU_METRICS: tuple[str, ...] = (*VESSEL_CLASSES, "mean")
+"""The scores of a `VesselIoU`, as `to_dict` names them: each vessel class, then their mean."""
+
+
+def no_counts() -> np.ndarray:
+    """Zero `intersection_and_union` counts, to sum a set's counts into."""
+    return np.zeros((len(VESSEL_CLASSES), 2), dtype=np.int64)
 
 
 def intersection_and_union(predicted: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -21,7 +29,7 @@ def intersection_and_union(predicted: np.ndarray, truth: np.ndarray) -> np.ndarr
     predicted, truth = np.asarray(predicted), np.asarray(truth)
     if predicted.shape != truth.shape:
         raise ValueError(f"prediction shape {predicted.shape} != label shape {truth.shape}")
-    counts = np.zeros((len(VESSEL_CLASSES), 2), dtype=np.int64)
+    counts = no_counts()
     for row, label in enumerate(VESSEL_CLASSES.values()):
         in_predicted, in_truth = predicted == label, truth == label
         counts[row] = (

@@ -44,17 +44,24 @@ def build_model(config: ModelConfig, encoder_weights: Path | None = None) -> smp
     return model
 
 
-def read_state_dict(path: Path) -> Mapping[str, torch.Tensor]:
-    """A tensor state dict from a torch file, read safely (`weights_only=True`)."""
+def load_torch_file(path: Path, missing: str, unreadable: str) -> object:
+    """What a torch file holds, read safely (`weights_only=True`: no pickled code runs) onto
+    the CPU; a missing file or one torch cannot read is a ResusError (`missing`, `unreadable`
+    and the reason) naming the path."""
     path = Path(path)
     if not path.is_file():
-        raise ResusError("weights file not found", path)
+        raise ResusError(missing, path)
     try:
-        state_dict = torch.load(path, map_location="cpu", weights_only=True)
+        return torch.load(path, map_location="cpu", weights_only=True)
     except Exception as error:
-        raise ResusError(
-            f"not a readable torch weights file ({type(error).__name__})", path
-        ) from None
+        raise ResusError(f"{unreadable} ({type(error).__name__})", path) from None
+
+
+def read_state_dict(path: Path) -> Mapping[str, torch.Tensor]:
+    """A tensor state dict from a torch file, read safely (`weights_only=True`)."""
+    state_dict = load_torch_file(
+        path, missing="weights file not found", unreadable="not a readable torch weights file"
+    )
     if not isinstance(state_dict, Mapping) or not all(
         isinstance(value, torch.Tensor) for value in state_dict.values()
     ):
@@ -94,7 +101,7 @@ def resolve_device(name: str | None = None) -> torch.device:
     try:
         device = torch.device(name)
     except RuntimeError:
-        raise ResusError(f"--device {name!r} is not a torch device (try cpu, cuda, auto)") from None
+        raise ResusError(f"device {name!r} is not a torch device (try cpu, cuda, auto)") from None
     if device.type == "cuda" and not torch.cuda.is_available():
-        raise ResusError(f"--device {name!r}: CUDA is not available on this machine")
+        raise ResusError(f"device {name!r}: CUDA is not available on this machine")
     return device

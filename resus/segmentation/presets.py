@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 from resus.errors import ResusError
+from sim.labels import LABEL_NAMES
 
 
 @dataclass(frozen=True)
@@ -24,19 +25,19 @@ class ModelConfig:
     """Channels of each decoder block; one per encoder stage."""
     image_size: int = 256
     """Side of the square network input (pixels); images are resized to it and back."""
-    classes: int = 3
-    """Output classes: 0 background, 1 artery, 2 vein."""
+    classes: int = len(LABEL_NAMES)
+    """Output classes: one per label value (0 background, 1 artery, 2 vein)."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "decoder_channels", tuple(int(c) for c in self.decoder_channels))
         if len(self.decoder_channels) != self.encoder_depth:
             raise ResusError(
-                f"model needs one decoder channel count per encoder stage: depth "
-                f"{self.encoder_depth}, decoder_channels {self.decoder_channels}"
+                f"ModelConfig.decoder_channels needs one channel count per encoder stage: "
+                f"encoder_depth {self.encoder_depth}, decoder_channels {self.decoder_channels}"
             )
         if self.image_size % (2**self.encoder_depth):
             raise ResusError(
-                f"model image_size {self.image_size} must be divisible by "
+                f"ModelConfig.image_size {self.image_size} must be divisible by "
                 f"2**encoder_depth = {2**self.encoder_depth}"
             )
 
@@ -104,11 +105,14 @@ class TrainingPreset:
     def __post_init__(self) -> None:
         if not 0 < self.validation_fraction < 1:
             raise ResusError(
-                f"preset validation_fraction must be in (0, 1), got {self.validation_fraction}"
+                "TrainingPreset.validation_fraction must be in (0, 1), "
+                f"got {self.validation_fraction}"
             )
         for name in ("batch_size", "max_epochs", "patience", "evaluation_batch_size"):
             if getattr(self, name) < 1:
-                raise ResusError(f"preset {name} must be at least 1, got {getattr(self, name)}")
+                raise ResusError(
+                    f"TrainingPreset.{name} must be at least 1, got {getattr(self, name)}"
+                )
 
     def to_dict(self) -> dict:
         """JSON-able form, stored in checkpoints and metrics files."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from resus.segmentation.data import LabelledImages
+from sim.labels import ARTERY, VEIN
 
 
 def synthetic_subject(
@@ -41,8 +42,8 @@ def synthetic_subject(
     vein_present = (np.sin(6 * np.pi * t + drift) > -0.7) & np.ones_like(vein, dtype=bool)
 
     labels = np.zeros((count, size, size), dtype=np.uint8)
-    labels[vein_present & (vein < 1)] = 2
-    labels[artery < 1] = 1
+    labels[vein_present & (vein < 1)] = VEIN
+    labels[artery < 1] = ARTERY
     depth_gain = 1.0 - 0.5 * rows
     echo = rng.rayleigh(1.0, (count, size, size)) * 70.0 * depth_gain
     echo[labels > 0] *= 0.15

@@ -25,7 +25,7 @@ from resus.segmentation.augment import build_augmentation
 from resus.segmentation.checkpoint import save_checkpoint
 from resus.segmentation.data import LabelledImages, SegmentationDataset
 from resus.segmentation.losses import SegmentationLoss
-from resus.segmentation.metrics import VesselIoU, intersection_and_union
+from resus.segmentation.metrics import VesselIoU, intersection_and_union, no_counts
 from resus.segmentation.model import build_model, resolve_device
 from resus.segmentation.presets import TrainingPreset
 
@@ -51,6 +51,32 @@ class EpochRecord:
         }
 
 
+@dataclass(frozen=True)
+class TrainingSummary:
+    """How a training run went: its best epoch and the whole history (metrics files)."""
+
+    best_epoch: int
+    epochs_run: int
+    stopped_early: bool
+    best_validation_loss: float
+    best_validation_iou: VesselIoU
+    images_per_second: float
+    """Mean training throughput over all epochs."""
+    history: tuple[EpochRecord, ...]
+
+    def to_dict(self) -> dict:
+        """JSON-able form, as metrics.json stores it."""
+        return {
+            "best_epoch": self.best_epoch,
+            "epochs_run": self.epochs_run,
+            "stopped_early": self.stopped_early,
+            "best_validation_loss": self.best_validation_loss,
+            "best_validation_iou": self.best_validation_iou.to_dict(),
+            "images_per_second": self.images_per_second,
+            "history": [record.to_dict() for record in self.history],
+        }
+
+
 @dataclass
 class TrainingResult:
     """The best model, its checkpoint config and the per-epoch history."""
@@ -66,18 +92,22 @@ class TrainingResult:
         """Mean training throughput over all epochs."""
         return float(np.mean([record.images_per_second for record in self.history]))
 
-    def summary(self) -> dict:
-        """JSON-able summary for metrics files."""
-        best = self.history[self.best_epoch - 1]
-        return {
-            "best_epoch": self.best_epoch,
-            "epochs_run": len(self.history),
-            "stopped_early": self.stopped_early,
-            "best_validation_loss": best.validation_loss,
-            "best_validation_iou": best.validation_iou.to_dict(),
-            "images_per_second": self.images_per_second,
-            "history": [record.to_dict() for record in self.history],
-        }
+    @property
+    def best(self) -> EpochRecord:
+        """The record of the best epoch (the one whose model this is)."""
+        return self.history[self.best_epoch - 1]
+
+    def summary(self) -> TrainingSummary:
+        """The run's summary for metrics files (`.to_dict()` for JSON)."""
+        return TrainingSummary(
+            best_epoch=self.best_epoch,
+            epochs_run=len(self.history),
+            stopped_early=self.stopped_early,
+            best_validation_loss=self.best.validation_loss,
+            best_validation_iou=self.best.validation_iou,
+            images_per_second=self.images_per_second,
+            history=tuple(self.history),
+        )
 
 
 def seed_everything(seed: int) -> None:
@@ -164,7 +194,7 @@ def train_model(
         if not np.isfinite(validation_loss):
             raise ResusError(
                 f"training diverged: validation loss {validation_loss} at epoch {epoch} "
-                f"(lower the preset's learning_rate)"
+                "(lower TrainingPreset.learning_rate)"
             )
         if validation_loss < best_loss:
             best_loss, best_epoch = validation_loss, epoch
@@ -208,7 +238,7 @@ def evaluate(
     """Mean loss per image and pooled vessel IoU of `model` on `dataset` (no augmentation)."""
     model.eval()
     device = next(model.parameters()).device
-    total, counts = 0.0, np.zeros((2, 2), dtype=np.int64)
+    total, counts = 0.0, no_counts()
     for images, labels in DataLoader(dataset, batch_size=batch_size):
         images, labels = images.to(device), labels.to(device)
         logits = model(images)

@@ -17,7 +17,6 @@ import numpy as np
 
 from resus.errors import ResusError
 from sim.labels import LABEL_NAMES
-from sim.labels import LABEL_NAMES as DEFAULT_LABEL_NAMES  # noqa: F401  (until callers move)
 from sim.transforms import is_rigid, rigidity_error
 
 SOURCES: tuple[str, ...] = ("sim", "real", "plus")

@@ -17,15 +17,16 @@ single part there is nothing to compare, and the segmentation's majority class i
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import ndimage
 
 from resus.reconstruction.grid import VolumeGrid
-from sim.phantom import ARTERY, VEIN
-from sim.robot.scene_config import SceneConfig
+from sim.labels import ARTERY, LABEL_NAMES, VEIN, VESSEL_CLASSES
 
-CLASS_NAMES = {ARTERY: "artery", VEIN: "vein"}
+if TYPE_CHECKING:
+    from sim.robot.scene_config import SceneConfig
 
 
 @dataclass(frozen=True)
@@ -56,23 +57,25 @@ class VesselPart:
     lateral: float
     """Centroid's coordinate along the lateral direction (m)."""
     segmented_votes: dict[str, int]
-    """Voxels the segmentation called artery and vein."""
+    """Voxels the segmentation gave each vessel class, by class name."""
     label: int = 0
     """Class given by anatomy (ARTERY or VEIN)."""
 
     @property
     def segmented_label(self) -> int:
         """The segmentation's majority class in this part."""
-        return ARTERY if self.segmented_votes["artery"] >= self.segmented_votes["vein"] else VEIN
+        votes = self.segmented_votes
+        return ARTERY if votes[LABEL_NAMES[ARTERY]] >= votes[LABEL_NAMES[VEIN]] else VEIN
 
     def to_dict(self) -> dict:
+        """JSON-able form in millimetres, as vessels.json lists the parts."""
         return {
             "volume_mm3": round(self.volume * 1e9, 2),
             "centroid_mm": [round(float(c) * 1e3, 2) for c in self.centroid],
             "lateral_mm": round(self.lateral * 1e3, 2),
             "segmented_votes": self.segmented_votes,
-            "label": CLASS_NAMES[self.label],
-            "segmented_label": CLASS_NAMES[self.segmented_label],
+            "label": LABEL_NAMES[self.label],
+            "segmented_label": LABEL_NAMES[self.segmented_label],
         }
 
 
@@ -101,8 +104,7 @@ def find_parts(
                 centroid=centroid,
                 lateral=float(centroid @ frame.lateral),
                 segmented_votes={
-                    "artery": int(np.sum(votes == ARTERY)),
-                    "vein": int(np.sum(votes == VEIN)),
+                    name: int(np.sum(votes == label)) for name, label in VESSEL_CLASSES.items()
                 },
             )
         )
@@ -117,7 +119,7 @@ def assign_by_anatomy(parts: list[VesselPart]) -> str:
         parts[0].label = parts[0].segmented_label
         return (
             "one vessel part only: nothing to compare laterally, kept the segmentation's "
-            f"majority class ({CLASS_NAMES[parts[0].label]})"
+            f"majority class ({LABEL_NAMES[parts[0].label]})"
         )
     first, second = parts[0], parts[1]
     artery, vein = (first, second) if first.lateral > second.lateral else (second, first)

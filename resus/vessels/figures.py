@@ -11,9 +11,11 @@ from scipy import ndimage
 from resus.vessels.map import VesselMap
 from resus.vessels.needle import NeedlePlan, SkinModel
 from resus.vessels.track import VesselTrack
+from sim.labels import VESSEL_CLASSES, label_colour_unit
 
 MM = 1e3
-COLOURS = {"artery": (0.85, 0.15, 0.15), "vein": (0.15, 0.35, 0.9)}
+TRUTH_GREY = (0.55, 0.55, 0.55)
+"""Colour of the true surfaces under the map's."""
 VIEWS = (((0, 1), "top"), ((1, 2), "side"), ((0, 2), "end"))
 VIEW_SAMPLES = 20000
 """Surface points drawn per mesh in the projections."""
@@ -21,15 +23,6 @@ SLICE_MARGIN = 8.0e-3
 """Extra slice around the needle path in the needle picture (m)."""
 SLICE_PIXEL = 0.1e-3
 """Pixel size of the needle picture's slice (m)."""
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def save_mesh_views(
@@ -42,10 +35,15 @@ def save_mesh_views(
     """Top, side and end projections of the map's surfaces (colour) over the true ones (grey),
     drawn as area-uniform surface points after `view_pose` (e.g. base to phantom, so the axes
     are anatomical: x to the patient's right, y distal, z out of the skin)."""
-    plt = _pyplot()
-    figure, panels = plt.subplots(1, 3, figsize=(16, 5.5))
-    layers = [(mesh, (0.55, 0.55, 0.55), "truth") for mesh in truth.values()]
-    layers += [(mesh, COLOURS[name], f"map {name}") for name, mesh in meshes.items()]
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(16, 5.5))
+    panels = figure.subplots(1, 3)
+    layers = [(mesh, TRUTH_GREY, "truth") for mesh in truth.values()]
+    layers += [
+        (mesh, label_colour_unit(VESSEL_CLASSES[name]), f"map {name}")
+        for name, mesh in meshes.items()
+    ]
     projected = [(surface_points(mesh, view_pose), colour, label) for mesh, colour, label in layers]
     for panel, ((h, v), name) in zip(panels, VIEWS, strict=True):
         for points, colour, label in projected:
@@ -61,7 +59,6 @@ def save_mesh_views(
     figure.suptitle(title)
     figure.tight_layout()
     figure.savefig(path, dpi=90)
-    plt.close(figure)
     return path
 
 
@@ -77,7 +74,8 @@ def save_needle_slice(
     """The compounded B-mode in the needle's plane (along the vessel and the skin normal),
     with the map's classes outlined and the planned path drawn; without a safe site, the
     plane through the target's middle station, titled with the reason."""
-    plt = _pyplot()
+    from matplotlib.figure import Figure
+
     if plan.safe:
         centre, along = plan.target_point, plan.direction
     elif len(track.positions):
@@ -102,12 +100,13 @@ def save_needle_slice(
     image = ndimage.map_coordinates(vessel_map.intensity, voxels, order=1, cval=0.0)
     labels = ndimage.map_coordinates(vessel_map.labels, voxels, order=0, cval=0)
     extent = (u[0] * MM, u[-1] * MM, w[0] * MM, w[-1] * MM)
-    figure, panel = plt.subplots(figsize=(8, 6.5))
+    figure = Figure(figsize=(8, 6.5))
+    panel = figure.subplots()
     panel.imshow(image.reshape(uu.shape), cmap="gray", origin="lower", extent=extent)
-    for label, name in ((1, "artery"), (2, "vein")):
+    for label in VESSEL_CLASSES.values():
         mask = (labels == label).reshape(uu.shape).astype(float)
         if mask.any():
-            panel.contour(u * MM, w * MM, mask, levels=[0.5], colors=[COLOURS[name]])
+            panel.contour(u * MM, w * MM, mask, levels=[0.5], colors=[label_colour_unit(label)])
     if plan.safe:
         ends = np.array([plan.entry, plan.target_point]) - centre
         panel.plot(ends @ along * MM, ends @ up * MM, color="yellow", lw=2, label="needle")
@@ -125,5 +124,4 @@ def save_needle_slice(
     panel.set_ylabel("towards the skin (mm)")
     figure.tight_layout()
     figure.savefig(path, dpi=90)
-    plt.close(figure)
     return path

@@ -28,14 +28,8 @@ from resus.errors import ResusError
 from resus.reconstruction.compounding import ReconstructionSettings, reconstruct
 from resus.reconstruction.grid import VolumeGrid, aabb_grid
 from resus.sweep.model import pixels_to_world
-from resus.vessels.anatomy import (
-    CLASS_NAMES,
-    AnatomicalFrame,
-    VesselPart,
-    assign_by_anatomy,
-    find_parts,
-)
-from sim.phantom import VEIN
+from resus.vessels.anatomy import AnatomicalFrame, VesselPart, assign_by_anatomy, find_parts
+from sim.labels import LABEL_NAMES, VEIN, VESSEL_CLASSES
 
 SURFACE_LEVEL = 0.5
 """Vessel share at which the surface is drawn: where vessel and background pixels balance."""
@@ -62,11 +56,12 @@ class VesselMapSettings:
 
     def __post_init__(self) -> None:
         if not self.spacing > 0:
-            raise ResusError(f"--spacing must be positive, got {self.spacing}")
-        if not self.margin >= 0 or not self.min_part_volume >= 0:
-            raise ResusError("map margin and min_part_volume must be >= 0")
-        if self.smoothing_iterations < 0:
-            raise ResusError(f"smoothing_iterations must be >= 0, got {self.smoothing_iterations}")
+            raise ResusError(f"VesselMapSettings.spacing must be positive, got {self.spacing}")
+        for name in ("margin", "min_part_volume", "smoothing_iterations"):
+            if not getattr(self, name) >= 0:
+                raise ResusError(
+                    f"VesselMapSettings.{name} must be >= 0, got {getattr(self, name)}"
+                )
 
 
 @dataclass
@@ -144,7 +139,13 @@ def build_vessel_map(
     grid = vessel_grid(labels, poses, image_to_probe, settings.spacing, settings.margin)
     common = {"image_to_probe": image_to_probe, "grid": grid, "settings": settings.reconstruction}
     bmode = reconstruct(
-        frames, poses, labels=labels, n_classes=3, progress=progress, total=len(poses), **common
+        frames,
+        poses,
+        labels=labels,
+        n_classes=len(LABEL_NAMES),
+        progress=progress,
+        total=len(poses),
+        **common,
     )
     indicator = (np.asarray(label > 0, dtype=np.float32) for label in labels)
     share = reconstruct(indicator, poses, progress=progress, total=len(poses), **common)
@@ -156,7 +157,7 @@ def build_vessel_map(
     owner = nearest_part(part_index, grid)
     map_labels = np.zeros(grid.shape, dtype=np.uint8)
     meshes = {}
-    for label, name in CLASS_NAMES.items():
+    for name, label in VESSEL_CLASSES.items():
         members = [part.index for part in parts if part.label == label]
         if not members:
             continue

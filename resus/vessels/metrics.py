@@ -17,6 +17,10 @@ and closes its surfaces where the data end.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING
+
 import numpy as np
 import trimesh
 from scipy import ndimage
@@ -25,8 +29,11 @@ from resus.reconstruction.grid import VolumeGrid
 from resus.vessels.map import VesselMap, lookup_nearest
 from resus.vessels.mesh_distance import MeshDistance
 from resus.vessels.track import VesselTrack
-from sim.phantom import Phantom
+from sim.labels import ARTERY, VEIN, VESSEL_CLASSES
 from sim.transforms import invert_pose
+
+if TYPE_CHECKING:
+    from sim.phantom import Phantom
 
 SCORED_EROSION = 3
 """Voxels trimmed off the data's edge before scoring (where the map closes its surfaces)."""
@@ -37,6 +44,70 @@ TRUTH_MESH_RESOLUTION = 0.2e-3
 LABEL_CHUNK = 1_000_000
 """Voxel centres labelled per call to the phantom."""
 MM = 1e3
+
+InRegion = Callable[[np.ndarray], np.ndarray]
+"""Which of (N, 3) phantom-frame points lie in the scored region (bool (N,))."""
+
+
+@dataclass(frozen=True)
+class SurfaceDistances:
+    """Distances (mm) between a map surface and the true one, inside the scored region."""
+
+    mean_mm: float
+    """Symmetric mean: the average of the two one-way means."""
+    hd95_mm: float
+    """The larger of the two one-way 95th percentiles."""
+    map_to_truth_mean_mm: float
+    truth_to_map_mean_mm: float
+    samples: tuple[int, int]
+    """Surface samples in the region: on the map, on the truth."""
+
+
+@dataclass(frozen=True)
+class VesselScore:
+    """One vessel class of the map against the phantom."""
+
+    dice: float
+    surface: SurfaceDistances | None
+    """None when the map has no such surface or the region holds none of the true one."""
+    centreline_distance_mm: float | None
+    """None without cross-sections in the scored region."""
+
+    @property
+    def mean_surface_distance_mm(self) -> float | None:
+        return None if self.surface is None else self.surface.mean_mm
+
+    @property
+    def hd95_mm(self) -> float | None:
+        return None if self.surface is None else self.surface.hd95_mm
+
+    def to_dict(self) -> dict:
+        """JSON-able form, as vessels.json holds it (one-way means only where measured)."""
+        data: dict = {
+            "dice": self.dice,
+            "mean_surface_distance_mm": self.mean_surface_distance_mm,
+            "hd95_mm": self.hd95_mm,
+        }
+        if self.surface is not None:
+            data["map_to_truth_mean_mm"] = self.surface.map_to_truth_mean_mm
+            data["truth_to_map_mean_mm"] = self.surface.truth_to_map_mean_mm
+            data["surface_samples"] = list(self.surface.samples)
+        data["centreline_distance_mm"] = self.centreline_distance_mm
+        return data
+
+
+@dataclass(frozen=True)
+class NeedleTruth:
+    """A planned needle path checked on the phantom's exact geometry (mm)."""
+
+    tip_in_target_lumen: bool
+    tip_depth_in_target_mm: float
+    """How far inside the target's wall the tip lies (negative: outside)."""
+    clearance_from_other_mm: float
+    """Smallest distance from the path to the other vessel (negative: it enters it)."""
+
+    def to_dict(self) -> dict:
+        return asdict(self)
 
 
 def dice(predicted: np.ndarray, truth: np.ndarray) -> float:
@@ -89,28 +160,27 @@ def distance_to_polylines(points: np.ndarray, polylines: list[np.ndarray]) -> np
 def surface_scores(
     mesh: trimesh.Trimesh | None,
     truth_mesh: trimesh.Trimesh,
-    truth_sdf,
-    in_region,
+    truth_sdf: Callable[[np.ndarray], np.ndarray],
+    in_region: InRegion,
     seed: int,
-) -> dict:
-    """Mean, HD95 and both one-way means (mm) between a map surface and the true one."""
+) -> SurfaceDistances | None:
+    """Mean, HD95 and both one-way means (mm) between a map surface and the true one (None
+    without a map surface or without true surface in the region)."""
     truth_points = surface_samples(truth_mesh, SURFACE_SAMPLES, seed)
     truth_points = truth_points[in_region(truth_points)]
     if mesh is None or len(truth_points) == 0:
-        return {"mean_surface_distance_mm": None, "hd95_mm": None}
+        return None
     map_points = surface_samples(mesh, SURFACE_SAMPLES, seed + 1)
     map_points = map_points[in_region(map_points)]
     map_to_truth = np.abs(truth_sdf(map_points))
     truth_to_map = MeshDistance(mesh)(truth_points)
-    return {
-        "mean_surface_distance_mm": float(0.5 * (map_to_truth.mean() + truth_to_map.mean()) * MM),
-        "hd95_mm": float(
-            max(np.percentile(map_to_truth, 95), np.percentile(truth_to_map, 95)) * MM
-        ),
-        "map_to_truth_mean_mm": float(map_to_truth.mean() * MM),
-        "truth_to_map_mean_mm": float(truth_to_map.mean() * MM),
-        "surface_samples": [len(map_points), len(truth_points)],
-    }
+    return SurfaceDistances(
+        mean_mm=float(0.5 * (map_to_truth.mean() + truth_to_map.mean()) * MM),
+        hd95_mm=float(max(np.percentile(map_to_truth, 95), np.percentile(truth_to_map, 95)) * MM),
+        map_to_truth_mean_mm=float(map_to_truth.mean() * MM),
+        truth_to_map_mean_mm=float(truth_to_map.mean() * MM),
+        samples=(len(map_points), len(truth_points)),
+    )
 
 
 def score_map(
@@ -119,8 +189,8 @@ def score_map(
     phantom_to_base: np.ndarray,
     tracks: dict[str, VesselTrack],
     seed: int = 0,
-) -> dict:
-    """Per-class scores of the map against the phantom ({'artery': {...}, 'vein': {...}})."""
+) -> dict[str, VesselScore]:
+    """Per-class scores of the map against the phantom, by class name."""
     base_to_phantom = invert_pose(phantom_to_base)
     grid = vessel_map.grid
     region = scored_region(vessel_map.filled)
@@ -131,23 +201,22 @@ def score_map(
         return lookup_nearest(grid, region, world).astype(bool)
 
     scores = {}
-    for label, name in ((1, "artery"), (2, "vein")):
+    for name, label in VESSEL_CLASSES.items():
         mesh = vessel_map.meshes.get(name)
         mesh_in_phantom = None if mesh is None else mesh.copy().apply_transform(base_to_phantom)
-        entry = {
-            "dice": dice((vessel_map.labels == label) & region, (truth == label) & region),
-            **surface_scores(
+        scores[name] = VesselScore(
+            dice=dice((vessel_map.labels == label) & region, (truth == label) & region),
+            surface=surface_scores(
                 mesh_in_phantom,
                 phantom.mesh(name, TRUTH_MESH_RESOLUTION),
                 lambda points, label=label: phantom.vessel_sdf(points, label),
                 in_region,
                 seed + 2 * label,
             ),
-        }
-        entry["centreline_distance_mm"] = centreline_distance(
-            tracks.get(name), phantom, label, base_to_phantom, in_region
+            centreline_distance_mm=centreline_distance(
+                tracks.get(name), phantom, label, base_to_phantom, in_region
+            ),
         )
-        scores[name] = entry
     return scores
 
 
@@ -156,7 +225,7 @@ def centreline_distance(
     phantom: Phantom,
     label: int,
     base_to_phantom: np.ndarray,
-    in_region,
+    in_region: InRegion,
 ) -> float | None:
     """Mean distance (mm) from the track's round cross-section centroids to the true
     centrelines of class `label` (None without cross-sections in the scored region)."""
@@ -171,13 +240,16 @@ def centreline_distance(
     return float(distance_to_polylines(centroids, polylines).mean() * MM)
 
 
-def needle_truth(plan_path: np.ndarray, target: int, phantom: Phantom, base_to_phantom) -> dict:
+def needle_truth(
+    plan_path: np.ndarray, target: int, phantom: Phantom, base_to_phantom: np.ndarray
+) -> NeedleTruth:
     """The planned path checked on the phantom: does its tip sit in the target's lumen, and
-    how close does it come to the other vessel (exact distances, mm)?"""
+    how close does it come to the other vessel (exact distances)?"""
     points = to_frame(plan_path, base_to_phantom)
-    other = 3 - target
-    return {
-        "tip_in_target_lumen": bool(phantom.vessel_sdf(points[-1:], target)[0] < 0),
-        "tip_depth_in_target_mm": float(-phantom.vessel_sdf(points[-1:], target)[0] * MM),
-        "clearance_from_other_mm": float(phantom.vessel_sdf(points, other).min() * MM),
-    }
+    other = VEIN if target == ARTERY else ARTERY
+    tip_distance = float(phantom.vessel_sdf(points[-1:], target)[0])
+    return NeedleTruth(
+        tip_in_target_lumen=tip_distance < 0,
+        tip_depth_in_target_mm=-tip_distance * MM,
+        clearance_from_other_mm=float(phantom.vessel_sdf(points, other).min() * MM),
+    )

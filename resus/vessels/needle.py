@@ -55,13 +55,13 @@ class NeedleSettings:
     def __post_init__(self) -> None:
         if not 5.0 <= self.angle_deg <= 90.0:
             raise ResusError(
-                f"--needle-angle must be between 5 and 90 degrees, got {self.angle_deg}"
+                f"NeedleSettings.angle_deg must be between 5 and 90 degrees, got {self.angle_deg}"
             )
         for name in ("min_clearance", "min_branch_distance", "max_curvature", "end_margin"):
             if not getattr(self, name) >= 0:
-                raise ResusError(f"needle {name} must be >= 0, got {getattr(self, name)}")
+                raise ResusError(f"NeedleSettings.{name} must be >= 0, got {getattr(self, name)}")
         if not self.path_step > 0:
-            raise ResusError(f"needle path_step must be positive, got {self.path_step}")
+            raise ResusError(f"NeedleSettings.path_step must be positive, got {self.path_step}")
 
 
 @dataclass(frozen=True)

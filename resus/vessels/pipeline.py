@@ -7,19 +7,27 @@ that `resus vessels` and `resus demo` give the same files and the same numbers.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+import trimesh
 
 from resus.errors import ResusError
+from resus.reconstruction.grid import VolumeGrid
 from resus.sweep.model import Sweep
-from resus.vessels.map import VesselMapSettings
-from resus.vessels.needle import NeedleSettings
-from sim.robot.scene_config import SceneConfig
+from resus.vessels.anatomy import AnatomicalFrame, VesselPart
+from resus.vessels.map import VesselMap, VesselMapSettings, build_vessel_map, lookup_nearest
+from resus.vessels.metrics import NeedleTruth, VesselScore, needle_truth, score_map
+from resus.vessels.needle import NeedlePlan, NeedleSettings, SkinModel, plan_needle
+from resus.vessels.track import VesselTrack, vessel_track
+from sim.labels import LABEL_NAMES, VESSEL_CLASSES, label_colour
+from sim.transforms import invert_pose
 
-TARGETS = {"vein": 2, "artery": 1}
-"""Needle targets and their label values: the vein for a central line, the artery for REBOA."""
+if TYPE_CHECKING:
+    from sim.phantom import Phantom
+    from sim.robot.scene_config import SceneConfig
 
 
 @dataclass(frozen=True)
@@ -27,12 +35,76 @@ class VesselJob:
     """What to map and which vessel the needle goes to."""
 
     target: str = "vein"
+    """Needle target: the vein for a central line, the artery for REBOA."""
     needle: NeedleSettings = field(default_factory=NeedleSettings)
     map: VesselMapSettings = field(default_factory=VesselMapSettings)
 
     def __post_init__(self) -> None:
-        if self.target not in TARGETS:
-            raise ResusError(f"--target must be vein or artery, got {self.target!r}")
+        if self.target not in VESSEL_CLASSES:
+            raise ResusError(
+                f"VesselJob.target must be one of {', '.join(VESSEL_CLASSES)}, got {self.target!r}"
+            )
+
+
+@dataclass(frozen=True)
+class MeshSummary:
+    """Size and closure of one class's surface."""
+
+    faces: int
+    watertight: bool
+
+    @classmethod
+    def of(cls, mesh: trimesh.Trimesh) -> MeshSummary:
+        return cls(len(mesh.faces), bool(mesh.is_watertight))
+
+
+@dataclass(frozen=True)
+class VesselMapResult:
+    """What `map_vessels` found and wrote: the content of vessels.json, typed."""
+
+    sources: dict[str, str]
+    """What was mapped (e.g. the sweep and where its labels came from)."""
+    scene: SceneConfig
+    grid: VolumeGrid
+    anatomy: str
+    """Why the classes were given as they were."""
+    parts: tuple[VesselPart, ...]
+    meshes: dict[str, MeshSummary]
+    needle: NeedlePlan
+    scores: dict[str, VesselScore] | None
+    """Per-class scores against the phantom; None when the sweep is not simulated."""
+    not_scored: str
+    """Why `scores` is None ("" when the map was scored)."""
+    needle_truth: NeedleTruth | None
+    """The planned path on the phantom (a simulated sweep with a safe site only)."""
+    files: tuple[str, ...]
+    """The files written beside vessels.json, relative to the output folder."""
+
+    def scores_to_dict(self) -> dict[str, dict] | str:
+        """vessels.json's "scores": the per-class scores, or why there are none."""
+        if self.scores is None:
+            return self.not_scored
+        return {name: score.to_dict() for name, score in self.scores.items()}
+
+    def to_dict(self) -> dict:
+        """JSON-able form, as vessels.json holds it (`needle_truth` only where checked)."""
+        data = {
+            **self.sources,
+            "scene": {
+                **self.scene.to_dict(),
+                "phantom_to_base": self.scene.phantom_to_base.tolist(),
+            },
+            "grid": self.grid.describe(),
+            "anatomy": self.anatomy,
+            "parts": [part.to_dict() for part in self.parts],
+            "meshes": {name: asdict(summary) for name, summary in self.meshes.items()},
+            "needle": self.needle.to_dict(),
+            "scores": self.scores_to_dict(),
+        }
+        if self.needle_truth is not None:
+            data["needle_truth"] = self.needle_truth.to_dict()
+        data["files"] = list(self.files)
+        return data
 
 
 def map_vessels(
@@ -43,15 +115,10 @@ def map_vessels(
     sources: dict[str, str],
     job: VesselJob | None = None,
     progress: bool = False,
-) -> dict:
+) -> VesselMapResult:
     """Map the vessels of `sweep` from `labels`, plan the needle, score a simulated sweep
     against its phantom, and write meshes, the label volume, pictures and `vessels.json`
-    into `out`. `sources` names the sweep and the labels in the metrics. Returns the metrics."""
-    from resus.vessels.anatomy import AnatomicalFrame
-    from resus.vessels.map import build_vessel_map
-    from resus.vessels.needle import SkinModel, plan_needle
-    from resus.vessels.track import vessel_track
-
+    into `out`. `sources` names the sweep and the labels in the metrics."""
     job = job or VesselJob()
     out.mkdir(parents=True, exist_ok=True)
     frame = AnatomicalFrame.from_scene(scene)
@@ -61,62 +128,66 @@ def map_vessels(
     )  # fmt: skip
     tracks = {
         name: vessel_track(vessel_map.labels == label, vessel_map.grid, frame.proximal)
-        for name, label in TARGETS.items()
+        for name, label in VESSEL_CLASSES.items()
     }
-    other = "artery" if job.target == "vein" else "vein"
+    other = next(name for name in VESSEL_CLASSES if name != job.target)
     skin = SkinModel.from_poses(sweep.probe_to_base)
     plan = plan_needle(
         tracks[job.target], job.target, vessel_map.meshes.get(other), skin, vessel_map.covered,
-        vessel_map.label_at, TARGETS[job.target], job.needle,
+        vessel_map.label_at, VESSEL_CLASSES[job.target], job.needle,
     )  # fmt: skip
-    metrics = {
-        **sources,
-        "scene": {**scene.to_dict(), "phantom_to_base": scene.phantom_to_base.tolist()},
-        "grid": vessel_map.grid.describe(),
-        "anatomy": vessel_map.anatomy,
-        "parts": [part.to_dict() for part in vessel_map.parts],
-        "meshes": {
-            name: {"faces": len(mesh.faces), "watertight": bool(mesh.is_watertight)}
-            for name, mesh in vessel_map.meshes.items()
-        },
-        "needle": plan.to_dict(),
-    }
-    truth_meshes = {}
+    scores, not_scored, checked, truth_meshes = None, "", None, {}
     if sweep.source == "sim":
         from resus.acquisition.simulation import phantom_spec
-        from resus.vessels.metrics import needle_truth, score_map
         from sim.phantom import Phantom
-        from sim.transforms import invert_pose
 
         truth = Phantom(phantom_spec(scene))
-        metrics["scores"] = score_map(vessel_map, truth, scene.phantom_to_base, tracks)
+        scores = score_map(vessel_map, truth, scene.phantom_to_base, tracks)
         if plan.safe:
-            metrics["needle_truth"] = needle_truth(
+            checked = needle_truth(
                 plan.path(job.needle.path_step),
-                TARGETS[job.target],
+                VESSEL_CLASSES[job.target],
                 truth,
                 invert_pose(scene.phantom_to_base),
             )
         truth_meshes = _truth_in_box(truth, scene.phantom_to_base, vessel_map)
     else:
-        metrics["scores"] = f"not scored: the sweep's source is {sweep.source!r}, not 'sim'"
+        not_scored = f"not scored: the sweep's source is {sweep.source!r}, not 'sim'"
     written = _write_files(out, vessel_map, plan, tracks[job.target], skin, truth_meshes, scene)
-    metrics["files"] = [str(path.relative_to(out)) for path in written]
-    (out / "vessels.json").write_text(json.dumps(metrics, indent=2))
-    return metrics
+    result = VesselMapResult(
+        sources=dict(sources),
+        scene=scene,
+        grid=vessel_map.grid,
+        anatomy=vessel_map.anatomy,
+        parts=tuple(vessel_map.parts),
+        meshes={name: MeshSummary.of(mesh) for name, mesh in vessel_map.meshes.items()},
+        needle=plan,
+        scores=scores,
+        not_scored=not_scored,
+        needle_truth=checked,
+        files=tuple(str(path.relative_to(out)) for path in written),
+    )
+    (out / "vessels.json").write_text(json.dumps(result.to_dict(), indent=2))
+    return result
 
 
-def _write_files(out, vessel_map, plan, track, skin, truth_meshes, scene) -> list[Path]:
+def _write_files(
+    out: Path,
+    vessel_map: VesselMap,
+    plan: NeedlePlan,
+    track: VesselTrack,
+    skin: SkinModel,
+    truth_meshes: dict[str, trimesh.Trimesh],
+    scene: SceneConfig,
+) -> list[Path]:
     """Meshes, the label volume for 3D Slicer, and the two pictures."""
     from resus.reconstruction.io import write_volume
     from resus.vessels.figures import save_mesh_views, save_needle_slice
-    from sim.transforms import invert_pose
 
     written = write_meshes(out, vessel_map.meshes)
     written.append(
-        write_volume(out / "vessel_labels.nrrd", vessel_map.labels, vessel_map.grid,
-                     ["background", "artery", "vein"])
-    )  # fmt: skip
+        write_volume(out / "vessel_labels.nrrd", vessel_map.labels, vessel_map.grid, LABEL_NAMES)
+    )
     in_phantom_frame = bool(truth_meshes)
     written.append(
         save_mesh_views(
@@ -132,13 +203,9 @@ def _write_files(out, vessel_map, plan, track, skin, truth_meshes, scene) -> lis
     return written
 
 
-def write_meshes(out: Path, meshes: dict) -> list[Path]:
+def write_meshes(out: Path, meshes: dict[str, trimesh.Trimesh]) -> list[Path]:
     """Each class as PLY and STL in millimetres (as 3D Slicer reads them, world coordinates
     unchanged like the NRRD volumes), and all classes in one GLB in metres (glTF's unit)."""
-    import trimesh
-
-    from resus.vessels.figures import COLOURS
-
     written = []
     scene = trimesh.Scene()
     for name, mesh in meshes.items():
@@ -148,20 +215,20 @@ def write_meshes(out: Path, meshes: dict) -> list[Path]:
             written.append(out / f"{name}.{suffix}")
             in_mm.export(written[-1])
         coloured = mesh.copy()
-        coloured.visual.face_colors = [int(255 * c) for c in COLOURS[name]] + [255]
+        coloured.visual.face_colors = [*label_colour(VESSEL_CLASSES[name]), 255]
         scene.add_geometry(coloured, geom_name=name)
     written.append(out / "vessel_map.glb")
     scene.export(written[-1])
     return written
 
 
-def _truth_in_box(truth, phantom_to_base, vessel_map) -> dict:
-    """The phantom's artery and vein surfaces (world metres), cut to the map's grid box."""
-    from resus.vessels.map import lookup_nearest
-
+def _truth_in_box(
+    truth: Phantom, phantom_to_base: np.ndarray, vessel_map: VesselMap
+) -> dict[str, trimesh.Trimesh]:
+    """The phantom's vessel surfaces by class name (world metres), cut to the map's grid box."""
     inside = np.ones(vessel_map.grid.shape, dtype=bool)
     meshes = {}
-    for name in ("artery", "vein"):
+    for name in VESSEL_CLASSES:
         mesh = truth.mesh(name, 0.4e-3).apply_transform(phantom_to_base)
         keep = lookup_nearest(vessel_map.grid, inside, mesh.triangles_center)
         meshes[name] = mesh.submesh([np.flatnonzero(keep)], append=True)

@@ -4,7 +4,7 @@ import dataclasses
 
 import h5py
 
-from resus.acquisition.simulation import LinearSweepParameters
+from resus.acquisition.patterns import LinearPattern
 from resus.experiments.data import ScanSettings, prepare_subjects
 from resus.reslicing.reslice import ResliceSettings
 from resus.sweep.io import SweepReader
@@ -12,7 +12,7 @@ from resus.sweep.io import SweepReader
 SETTINGS = ScanSettings(
     cols=48,
     rows=48,
-    sweep=LinearSweepParameters(length=0.015, speed=0.01, frame_rate=8.0),
+    sweep=LinearPattern(length=0.015, speed=0.01, frame_rate=8.0),
     spacing=1.0e-3,
     reslice=ResliceSettings(angles_deg=(0.0, 20.0), step=6, size=32),
 )

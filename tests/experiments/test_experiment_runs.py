@@ -9,7 +9,7 @@ import sys
 import pytest
 import torch
 
-from resus.acquisition.simulation import LinearSweepParameters
+from resus.acquisition.patterns import LinearPattern
 from resus.experiments.data import ScanSettings
 from resus.experiments.tables import (
     ExperimentPreset,
@@ -22,7 +22,7 @@ from resus.segmentation.presets import QUICK, ModelConfig
 
 torch.set_num_threads(1)  # one per pytest-xdist worker: more oversubscribes the 2 cores
 
-TINY_SWEEP = LinearSweepParameters(length=0.02, speed=0.01, frame_rate=8.0)
+TINY_SWEEP = LinearPattern(length=0.02, speed=0.01, frame_rate=8.0)
 TINY = ExperimentPreset(
     name="tiny",
     training=dataclasses.replace(
@@ -60,7 +60,7 @@ def subjects_run(tmp_path_factory):
 def test_subjects_report_table_equals_results_json(subjects_run):
     options, results = subjects_run
     saved = json.loads((options.out / "results.json").read_text())
-    assert saved == json.loads(json.dumps(results))
+    assert saved == json.loads(json.dumps(results.to_dict()))
     regimes = saved["loso"]["regimes"]
     assert regimes["imagenet"]["status"] == "not run"
     report = (options.out / "report.md").read_text()
@@ -84,15 +84,15 @@ def test_subjects_report_table_equals_results_json(subjects_run):
 def test_no_test_subject_reslice_reaches_training(subjects_run):
     """Each fold trains on the other subjects' frames (less validation) and reslices only."""
     _, results = subjects_run
-    counts = results["images_per_subject"]
+    counts = {scan.subject: scan for scan in results.images}
     fraction = TINY.training.validation_fraction
     for subject in counts:
         others = [c for s, c in counts.items() if s != subject]
-        frames = sum(c["frames"] - min(max(1, round(fraction * c["frames"])), c["frames"] - 1)
+        frames = sum(c.frames - min(max(1, round(fraction * c.frames)), c.frames - 1)
                      for c in others)  # fmt: skip
-        reslices = sum(c["reslices"] for c in others)
-        assert results["training_images"]["us"][subject] == frames
-        assert results["training_images"]["resus"][subject] == frames + reslices
+        reslices = sum(c.reslices for c in others)
+        assert results.training_images["us"][subject] == frames
+        assert results.training_images["resus"][subject] == frames + reslices
 
 
 def test_phantom_report_table_equals_results_json(tmp_path):
@@ -102,13 +102,13 @@ def test_phantom_report_table_equals_results_json(tmp_path):
     assert saved["seeds"] == [0, 1]
     report = (options.out / "report.md").read_text()
     for trained_on in ("frames", "frames + reslices"):
-        row = results["iou"][trained_on]
+        row = results.iou[trained_on]
         line = next(x for x in report.splitlines() if x.startswith(f"| {trained_on} | "))
         expected = []
         for test in ("frames", "frames + reslices"):
-            runs = [run["mean"] for run in row[test]["runs"]]
-            assert len(runs) == 2 and row[test]["mean"] == pytest.approx(sum(runs) / 2)
-            expected += [round(row[test]["mean"], 3), round(row[test]["mean_std"], 3)]
+            runs = [run.mean for run in row[test].runs]
+            assert len(runs) == 2 and row[test].mean == pytest.approx(sum(runs) / 2)
+            expected += [round(row[test].mean, 3), round(row[test].mean_std, 3)]
         assert numbers(line) == expected
     assert saved["scans"]["B"]["reslices"] > 0
     assert (options.out / "predictions.png").is_file()

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import torch
 import typer
+from cli_runner import resus
 from typer.testing import CliRunner
 
 from resus.cli.train import register
@@ -78,14 +79,37 @@ def test_train_command_holds_out_a_subject(files) -> None:
     assert (out / "curves.png").is_file()
 
 
-def test_train_command_reports_imagenet_not_run(files) -> None:
+def test_train_command_refuses_imagenet_without_weights(files) -> None:
     out = files / "imagenet"
     arguments = ["train", "--sweeps", str(files / "sweeps" / "s1.h5"), "--out", str(out)]
     result = CliRunner().invoke(cli(), [*arguments, "--regime", "imagenet"])
-    assert result.exit_code == 0 and "regime imagenet not run" in result.output
-    metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["status"] == "not run" and "--weights" in metrics["reason"]
-    assert not (out / "checkpoint.pt").exists()
+    assert isinstance(result.exception, ResusError), result.output
+    assert "--regime imagenet: no encoder weights file given (--weights)" in str(result.exception)
+    assert not out.exists()  # refused before anything is written
+
+
+def test_train_command_refuses_resus_without_training_reslices(files) -> None:
+    out = files / "refused"
+    arguments = ["train", "--sweeps", str(files / "sweeps"), "--out", str(out), "--regime"]
+    arguments += ["resus", "--test-subject", "s2"]
+    nothing = CliRunner().invoke(cli(), arguments)
+    assert isinstance(nothing.exception, ResusError), nothing.output
+    assert str(nothing.exception) == "--regime resus: no reslices given (--reslices)"
+    held_out = ["--reslices", str(files / "s2_reslices.h5")]
+    only_test = CliRunner().invoke(cli(), [*arguments, *held_out])
+    assert isinstance(only_test.exception, ResusError), only_test.output
+    assert "every given reslice belongs to the test subject 's2'" in str(only_test.exception)
+    assert not out.exists()
+    missing = ["train", "--sweeps", str(files / "nowhere"), "--out", str(out)]
+    refused = CliRunner().invoke(cli(), missing)
+    assert str(refused.exception).startswith("--sweeps: "), refused.exception
+    assert "nowhere: no such" in str(refused.exception)
+
+
+def test_train_resus_without_reslices_is_an_error_for_real(tmp_path) -> None:
+    done = resus("train", "--sweeps", tmp_path, "--out", tmp_path / "o", "--regime", "resus")
+    assert done.returncode == 2
+    assert done.stderr == "error: --regime resus: no reslices given (--reslices)\n"
 
 
 def test_loaders_read_files_and_name_bad_ones(files) -> None:
@@ -101,8 +125,8 @@ def test_loaders_read_files_and_name_bad_ones(files) -> None:
     write_synthetic_sweep(unlabelled, "s4", 4, labelled=False)
     with pytest.raises(ResusError, match=r"unlabelled\.h5: sweep has no labels"):
         load_sweep_frames([unlabelled])
-    with pytest.raises(ResusError, match=r"--sweeps: no such file"):
+    with pytest.raises(ResusError, match=r"nowhere\.h5: no such sweep file"):
         load_sweep_frames([files / "nowhere.h5"])
     (files / "empty").mkdir()
-    with pytest.raises(ResusError, match=r"--reslices: no \.h5 files"):
+    with pytest.raises(ResusError, match=r"empty: no \.h5 reslice files"):
         load_reslice_sets([files / "empty"])

@@ -81,6 +81,4 @@ def test_early_stopping_keeps_the_best_epoch() -> None:
     # Nothing learns, so the validation loss never drops below epoch 1's.
     assert result.best_epoch == 1 and len(result.history) == 3 and result.stopped_early
     assert result.config["best_epoch"] == 1
-    assert result.summary()["best_validation_loss"] == pytest.approx(
-        result.history[0].validation_loss
-    )
+    assert result.summary().best_validation_loss == pytest.approx(result.history[0].validation_loss)

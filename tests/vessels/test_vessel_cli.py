@@ -8,7 +8,8 @@ import pytest
 from cli_runner import resus
 
 from resus.acquisition.backends.simulated import SimulatedProbeConfig
-from resus.acquisition.simulation import LinearSweepParameters, resolve_scene, simulate_sweep
+from resus.acquisition.patterns import LinearPattern
+from resus.acquisition.simulation import resolve_scene, simulate_sweep
 from sim.ultrasound.probe import LinearProbe
 
 
@@ -18,7 +19,7 @@ def sweep_path(tmp_path_factory) -> Path:
     simulate_sweep(
         path,
         resolve_scene("default", None, None),
-        LinearSweepParameters(start=(0.0, -0.05), length=0.04, speed=0.025),
+        LinearPattern(start=(0.0, -0.05), length=0.04, speed=0.025),
         probe=SimulatedProbeConfig(probe=LinearProbe(cols=96, rows=96, depth=0.04)),
         progress=False,
     )

@@ -13,8 +13,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from resus.acquisition.backends.simulated import SimulatedProbeConfig
+from resus.acquisition.patterns import LinearPattern
 from resus.acquisition.simulation import (
-    LinearSweepParameters,
     phantom_spec,
     resolve_scene,
     simulate_sweep,
@@ -40,7 +40,7 @@ def mapped(tmp_path_factory):
     simulate_sweep(
         path,
         scene,
-        LinearSweepParameters(start=(0.0, -0.06), length=0.08, speed=0.025),
+        LinearPattern(start=(0.0, -0.06), length=0.08, speed=0.025),
         probe=SimulatedProbeConfig(probe=LinearProbe(cols=96, rows=96, depth=0.04)),
         progress=False,
     )
@@ -66,10 +66,10 @@ def test_ground_truth_map_lies_within_half_a_millimetre_of_the_phantom(mapped, s
     vessel_map = mapped[3]
     for name in ("artery", "vein"):
         score = scores[name]
-        assert score["mean_surface_distance_mm"] < 0.5, (name, score)
-        assert score["hd95_mm"] < 1.0, (name, score)
-        assert score["dice"] > 0.9, (name, score)
-        assert score["centreline_distance_mm"] < 0.5, (name, score)
+        assert score.mean_surface_distance_mm < 0.5, (name, score)
+        assert score.hd95_mm < 1.0, (name, score)
+        assert score.dice > 0.9, (name, score)
+        assert score.centreline_distance_mm < 0.5, (name, score)
     assert vessel_map.meshes["artery"].is_watertight and vessel_map.meshes["vein"].is_watertight
 
 
@@ -90,7 +90,7 @@ def test_dice_matches_an_independent_lookup_of_the_phantom(mapped, scores) -> No
     mapped_labels = vessel_map.labels[tuple(index.T)]
     for label, name in ((1, "artery"), (2, "vein")):
         a, b = mapped_labels == label, truth == label
-        assert scores[name]["dice"] == pytest.approx(2 * np.sum(a & b) / (a.sum() + b.sum()))
+        assert scores[name].dice == pytest.approx(2 * np.sum(a & b) / (a.sum() + b.sum()))
 
 
 def test_swapped_labels_are_put_right_by_anatomy(mapped) -> None:
@@ -124,8 +124,8 @@ def test_needle_path_reaches_the_target_lumen_and_keeps_its_clearance(
     assert plan.wall_depth < plan.insertion_depth
     # On the phantom's exact geometry: the tip is in the lumen and the clearance holds.
     truth = needle_truth(plan.path(1e-4), label, phantom, invert_pose(scene.phantom_to_base))
-    assert truth["tip_in_target_lumen"] and truth["tip_depth_in_target_mm"] > 2.0
-    assert truth["clearance_from_other_mm"] > 3.0 - 0.5
+    assert truth.tip_in_target_lumen and truth.tip_depth_in_target_mm > 2.0
+    assert truth.clearance_from_other_mm > 3.0 - 0.5
     # Clearance against brute force: every path point to dense samples of the other surface.
     path = plan.path(settings.path_step)
     surface = np.vstack([vessel_map.meshes[other].vertices,
