@@ -18,6 +18,8 @@ from resus.reconstruction.io import read_volume
 from resus.segmentation.checkpoint import load_checkpoint
 from resus.sweep.io import read_sweep
 
+pytestmark = pytest.mark.slow  # the demo and experiments run whole pipelines
+
 SMALLEST = ("--subjects", "0,1", "--image-size", "48", "--sweep-length", "0.012", "--epochs", "1")
 
 

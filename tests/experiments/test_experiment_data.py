@@ -3,11 +3,14 @@
 import dataclasses
 
 import h5py
+import pytest
 
 from resus.acquisition.patterns import LinearPattern
 from resus.experiments.data import ScanSettings, prepare_subjects
 from resus.reslicing.reslice import ResliceSettings
 from resus.sweep.io import SweepReader
+
+pytestmark = pytest.mark.slow  # the demo and experiments run whole pipelines
 
 SETTINGS = ScanSettings(
     cols=48,

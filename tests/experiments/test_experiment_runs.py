@@ -20,6 +20,8 @@ from resus.experiments.tables import (
 from resus.reslicing.reslice import ResliceSettings
 from resus.segmentation.presets import QUICK, ModelConfig
 
+pytestmark = pytest.mark.slow  # the demo and experiments run whole pipelines
+
 torch.set_num_threads(1)  # one per pytest-xdist worker: more oversubscribes the 2 cores
 
 TINY_SWEEP = LinearPattern(length=0.02, speed=0.01, frame_rate=8.0)
