@@ -31,6 +31,15 @@ def _suffix(path: Path) -> str:
     return suffix
 
 
+def _existing_volume(path: str | Path) -> tuple[Path, str]:
+    """`path` and its volume suffix; ResusError if it is no volume file name or no file."""
+    path = Path(path)
+    suffix = _suffix(path)
+    if not path.is_file():
+        raise ResusError("no such volume file", path)
+    return path, suffix
+
+
 def write_volume(
     path: str | Path,
     array: np.ndarray,
@@ -80,10 +89,7 @@ def write_volume(
 
 def read_volume(path: str | Path) -> tuple[np.ndarray, VolumeGrid, list[str] | None]:
     """Read a volume written by `write_volume` (or by PLUS / Slicer): array, grid, label names."""
-    path = Path(path)
-    suffix = _suffix(path)
-    if not path.is_file():
-        raise ResusError("no such volume file", path)
+    path, suffix = _existing_volume(path)
     if suffix in NRRD_SUFFIXES:
         import nrrd
 
@@ -126,10 +132,7 @@ def read_volume(path: str | Path) -> tuple[np.ndarray, VolumeGrid, list[str] | N
 def volume_subject(path: str | Path) -> str | None:
     """The subject of the sweep a volume was reconstructed from, if its header records one
     (the header alone is read)."""
-    path = Path(path)
-    suffix = _suffix(path)
-    if not path.is_file():
-        raise ResusError("no such volume file", path)
+    path, suffix = _existing_volume(path)
     if suffix in NRRD_SUFFIXES:
         import nrrd
 

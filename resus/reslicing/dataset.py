@@ -19,9 +19,9 @@ chunk), so a long run keeps memory flat and a crash loses at most the unflushed 
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
+from contextlib import AbstractContextManager
 from datetime import UTC, datetime
 from pathlib import Path
-from types import TracebackType
 
 import h5py
 import numpy as np
@@ -34,7 +34,7 @@ SCHEMA = "resus.reslices/1"
 FLUSH_EVERY = 64
 
 
-class ResliceWriter:
+class ResliceWriter(AbstractContextManager):
     """Streams reslices into a new HDF5 file; use as a context manager."""
 
     def __init__(
@@ -103,19 +103,11 @@ class ResliceWriter:
         if self._file.id.valid:
             self._file.close()
 
-    def __enter__(self) -> ResliceWriter:
-        return self
-
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
+    def __exit__(self, *exc_info: object) -> None:
         self.close()
 
 
-class ResliceDataset:
+class ResliceDataset(AbstractContextManager):
     """Reads a `resus.reslices/1` file lazily: `len`, indexing and batches."""
 
     def __init__(self, path: str | Path) -> None:
@@ -177,13 +169,5 @@ class ResliceDataset:
         """Close the file."""
         self._file.close()
 
-    def __enter__(self) -> ResliceDataset:
-        return self
-
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
+    def __exit__(self, *exc_info: object) -> None:
         self.close()

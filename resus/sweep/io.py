@@ -16,7 +16,7 @@ import os
 import re
 import struct
 from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -75,7 +75,7 @@ def file_errors(path: Path, action: str) -> Iterator[None]:
         raise SweepError(f"{action} failed ({error_summary(error)})", path) from None
 
 
-class SweepWriter:
+class SweepWriter(AbstractContextManager):
     """Write a sweep to `path` one frame at a time; every appended frame survives a crash.
 
     Use as a context manager. `frame_shape` is (rows, cols); the `with_*` flags say which
@@ -157,9 +157,6 @@ class SweepWriter:
 
     def __len__(self) -> int:
         return self._count
-
-    def __enter__(self) -> SweepWriter:
-        return self
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
@@ -261,7 +258,7 @@ def _open_hdf5(path: Path) -> h5py.File:
         ) from None
 
 
-class SweepReader:
+class SweepReader(AbstractContextManager):
     """A sweep file opened for reading: metadata and poses at once, frames on demand.
 
     Opening checks the schema, the datasets' shapes and types, the calibration, and that
@@ -337,9 +334,6 @@ class SweepReader:
 
     def __len__(self) -> int:
         return self.count
-
-    def __enter__(self) -> SweepReader:
-        return self
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()

@@ -18,8 +18,8 @@ import socket
 import subprocess
 import sys
 import time
+from contextlib import AbstractContextManager
 from pathlib import Path
-from types import TracebackType
 from urllib.parse import quote
 
 import rerun as rr
@@ -114,7 +114,7 @@ class WebViewerServer:
         self.process.wait(timeout=10)
 
 
-class RerunSession:
+class RerunSession(AbstractContextManager):
     """An open recording (`stream`) and the web viewer server it feeds, if any."""
 
     def __init__(
@@ -144,15 +144,7 @@ class RerunSession:
         if self.server is not None:
             self.server.stop()
 
-    def __enter__(self) -> RerunSession:
-        return self
-
-    def __exit__(
-        self,
-        kind: type[BaseException] | None,
-        error: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
+    def __exit__(self, *exc_info: object) -> None:
         self.close()
 
 

@@ -19,21 +19,12 @@ from sim.assets import assets_dir
 
 from resus.visualize.entities import ROBOT
 from resus.visualize.transforms import pose_columns
-from sim.robot.kinematics import frame_chain
+from sim.robot.kinematics import LINK_NAMES, frame_chain
 
 if TYPE_CHECKING:
     import mujoco
 
-BODY_NAMES = (
-    "base",
-    "shoulder_link",
-    "upper_arm_link",
-    "forearm_link",
-    "wrist_1_link",
-    "wrist_2_link",
-    "wrist_3_link",
-    "probe",
-)
+BODY_NAMES = ("base", *LINK_NAMES, "probe")
 """The UR3e model's bodies, base first; body k + 1 moves with joint k."""
 VISUAL_GROUP = 2
 """MJCF geom group of the drawn (not collision) shapes."""

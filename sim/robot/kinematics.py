@@ -19,6 +19,9 @@ DH_D = np.array([0.15185, 0.0, 0.0, 0.13105, 0.08535, 0.0921])
 DH_ALPHA = np.array([math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0])
 
 JOINT_NAMES = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
+LINK_NAMES = ("shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link", "wrist_2_link",
+              "wrist_3_link")  # fmt: skip
+"""The UR3e's moving links as the MJCF names them; link k moves with joint k."""
 JOINT_LOWER = np.array(
     [-2 * math.pi, -2 * math.pi, -math.pi, -2 * math.pi, -2 * math.pi, -2 * math.pi]
 )

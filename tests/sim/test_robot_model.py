@@ -10,6 +10,7 @@ from scipy.spatial.transform import Rotation
 from sim.phantom import load_phantom
 from sim.phantom.spec import BodySpec
 from sim.robot import kinematics
+from sim.robot.kinematics import LINK_NAMES
 from sim.robot.scene import build_scene, scene_xml_path
 from sim.robot.scene_config import (
     SceneConfig,
@@ -19,14 +20,6 @@ from sim.robot.scene_config import (
 )
 from sim.transforms import make_pose
 
-LINKS = (
-    "shoulder_link",
-    "upper_arm_link",
-    "forearm_link",
-    "wrist_1_link",
-    "wrist_2_link",
-    "wrist_3_link",
-)
 TABLE_MASSES = (1.98, 3.4445, 1.437, 0.871, 0.805, 0.261)
 TABLE_COMS = (
     (0, -0.02, 0),
@@ -44,7 +37,7 @@ def robot_model() -> mujoco.MjModel:
 
 
 def test_link_masses_match_the_table(robot_model) -> None:
-    for name, mass in zip(LINKS, TABLE_MASSES, strict=True):
+    for name, mass in zip(LINK_NAMES, TABLE_MASSES, strict=True):
         assert robot_model.body(name).mass[0] == pytest.approx(mass)
     assert robot_model.body("base").mass[0] == pytest.approx(2.0)
     assert robot_model.body("probe").mass[0] == pytest.approx(0.2)
@@ -56,7 +49,7 @@ def test_centres_of_mass_sit_where_the_table_puts_them_in_the_dh_link_frames(rob
     data.qpos[:6] = q
     mujoco.mj_kinematics(robot_model, data)
     frames = kinematics.frame_chain(q)
-    for i, (name, com) in enumerate(zip(LINKS, TABLE_COMS, strict=True)):
+    for i, (name, com) in enumerate(zip(LINK_NAMES, TABLE_COMS, strict=True)):
         expected = frames[i + 1] @ np.array([*com, 1.0])
         np.testing.assert_allclose(data.xipos[robot_model.body(name).id], expected[:3], atol=1e-9)
 
