@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit, prange
 
@@ -11,11 +9,11 @@ from sim.phantom.body import depth_below_skin, inside_body
 from sim.phantom.tube_kernels import (
     INSIDE,
     OUTSIDE,
-    STOP_SLACK,
     locate_cell,
     nearest_in_cell,
     round_cone_distance,
     round_cone_normal,
+    search_offset,
 )
 
 
@@ -41,13 +39,7 @@ def _inside_label(
     first = cell_start[c]
     if state[c] == INSIDE:
         return segment_label[items[first]]
-    k = c % shape[2]
-    j = (c // shape[2]) % shape[1]
-    i = c // (shape[2] * shape[1])
-    dx = px - (origin[0] + (i + 0.5) * cell_size)
-    dy = py - (origin[1] + (j + 0.5) * cell_size)
-    dz = pz - (origin[2] + (k + 0.5) * cell_size)
-    offset = math.sqrt(dx * dx + dy * dy + dz * dz) + STOP_SLACK
+    offset = search_offset(px, py, pz, c, origin, cell_size, shape)
     for m in range(first, cell_start[c + 1]):
         if dists[m] - offset >= 0.0:
             break

@@ -209,19 +209,26 @@ def locate_cell(px, py, pz, origin, cell_size, shape):
 
 
 @njit(cache=True)
-def nearest_in_cell(px, py, pz, c, segments, origin, cell_size, shape, cell_start, items, dists):
-    """(distance, segment) of the nearest candidate of cell c; (inf, -1) if it has none."""
-    best, best_segment = np.inf, -1
-    first, last = cell_start[c], cell_start[c + 1]
-    if first == last:
-        return best, best_segment
+def search_offset(px, py, pz, c, origin, cell_size, shape):
+    """How far the point lies from the centre of its cell c, plus STOP_SLACK: a candidate whose
+    distance from the centre exceeds the best found by more than this cannot be nearer."""
     k = c % shape[2]
     j = (c // shape[2]) % shape[1]
     i = c // (shape[2] * shape[1])
     dx = px - (origin[0] + (i + 0.5) * cell_size)
     dy = py - (origin[1] + (j + 0.5) * cell_size)
     dz = pz - (origin[2] + (k + 0.5) * cell_size)
-    offset = math.sqrt(dx * dx + dy * dy + dz * dz) + STOP_SLACK
+    return math.sqrt(dx * dx + dy * dy + dz * dz) + STOP_SLACK
+
+
+@njit(cache=True)
+def nearest_in_cell(px, py, pz, c, segments, origin, cell_size, shape, cell_start, items, dists):
+    """(distance, segment) of the nearest candidate of cell c; (inf, -1) if it has none."""
+    best, best_segment = np.inf, -1
+    first, last = cell_start[c], cell_start[c + 1]
+    if first == last:
+        return best, best_segment
+    offset = search_offset(px, py, pz, c, origin, cell_size, shape)
     for m in range(first, last):
         if dists[m] - offset >= best:
             break
