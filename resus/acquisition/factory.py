@@ -5,14 +5,16 @@ factory opens it, so choosing and wiring a backend happens here and nowhere else
 
 - robots: `SimulatedRobotConfig` (the in-process MuJoCo UR3e) or `RTDERobotConfig` (a UR
   controller over ur_rtde: a real UR3e or `resus emulate`);
-- probes: `SimulatedProbeConfig` (synthetic ultrasound at the robot's reported pose) or
-  `VideoProbeConfig` (the scanner's video through a frame grabber).
+- probes: `SimulatedProbeConfig` (synthetic ultrasound at the robot's reported pose),
+  `VideoProbeConfig` (the scanner's video through a frame grabber) or `IgtlProbeConfig`
+  (IMAGE messages from an OpenIGTLink server such as PLUS).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from resus.acquisition.backends.igtl import IgtlProbe, IgtlProbeConfig
 from resus.acquisition.backends.render_process import RenderProcessProbe
 from resus.acquisition.backends.rtde import RTDERobot, RTDERobotConfig
 from resus.acquisition.backends.simulated import (
@@ -36,7 +38,7 @@ class SimulatedRobotConfig:
 
 
 RobotConfig = SimulatedRobotConfig | RTDERobotConfig
-ProbeConfig = SimulatedProbeConfig | VideoProbeConfig
+ProbeConfig = SimulatedProbeConfig | VideoProbeConfig | IgtlProbeConfig
 
 
 def make_robot(config: RobotConfig) -> Robot:
@@ -57,6 +59,8 @@ def make_probe(config: ProbeConfig, robot: Robot, scene: SceneConfig) -> Probe:
     """
     if isinstance(config, VideoProbeConfig):
         return VideoProbe(config)
+    if isinstance(config, IgtlProbeConfig):
+        return IgtlProbe(config)
     if isinstance(config, SimulatedProbeConfig):
         phantom = Phantom(phantom_spec(scene))
         if isinstance(robot, SimulatedRobot):

@@ -2,12 +2,15 @@
 
 The robot is the in-process MuJoCo UR3e (`--robot sim`) or a UR controller over ur_rtde
 (`--robot HOST`: a real UR3e, or `resus emulate`); the probe is the synthetic ultrasound at the
-robot's reported pose (`--probe sim`) or the scanner's video through a frame grabber
-(`--probe video:0`, `video:URL`, `video:FILE`). Before anything moves the plan is printed and
+robot's reported pose (`--probe sim`), the scanner's video through a frame grabber
+(`--probe video:0`, `video:URL`, `video:FILE`) or the IMAGE stream of an OpenIGTLink server
+such as PLUS (`--probe igtl://HOST:PORT`). Before anything moves the plan is printed and
 checked against the safety limits, and the user confirms (or passes `--yes`). The Sweep is
 written frame by frame; with `--rerun`/`--rerun-save` every frame, the robot, the force and a
-growing reconstruction go to rerun live. A fault, a limit or Ctrl-C stops the robot, keeps
-the frames recorded so far and ends with one line on stderr and a non-zero status.
+growing reconstruction go to rerun live, and with `--igtl PORT` every frame goes out over
+OpenIGTLink as PLUS sends it (3D Slicer). A fault, a limit, a lost image stream or Ctrl-C
+stops the robot, keeps the frames recorded so far and ends with one line on stderr and a
+non-zero status.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from resus.errors import ResusError
 
 if TYPE_CHECKING:
     from resus.acquisition.factory import (
+        IgtlProbeConfig,
         RTDERobotConfig,
         SimulatedProbeConfig,
         SimulatedRobotConfig,
@@ -36,18 +40,41 @@ if TYPE_CHECKING:
 DEFAULT_WORKSPACE = "-0.45,-0.45,-0.05,0.45,0.45,0.45"
 
 
+PROBE_FORMS = "sim, sim:COLSxROWS or video:DEVICE|URL|FILE, or igtl://HOST:PORT"
+
+
+def parse_igtl_address(text: str) -> tuple[str, int]:
+    """'igtl://HOST:PORT' -> (HOST, PORT)."""
+    from resus.sweep.igtl import check_port
+
+    host, _, port = text.removeprefix("igtl://").rpartition(":")
+    if not text.startswith("igtl://") or not host or not port.isdecimal():
+        raise ResusError(
+            f"--probe: expected igtl://HOST:PORT (e.g. igtl://127.0.0.1:18944), got {text!r}"
+        )
+    return host, check_port(int(port), "--probe igtl port")
+
+
 def parse_probe(
     text: str, frame_rate: float, calibration: Path | None, crop: str | None
-) -> SimulatedProbeConfig | VideoProbeConfig:
-    """The probe config for `--probe`: 'sim', 'sim:COLSxROWS' or 'video:DEVICE|URL|FILE'
-    (device index, stream URL or video file), with `--calibration` and `--crop` for video."""
-    from resus.acquisition.factory import SimulatedProbeConfig, VideoProbeConfig
+) -> SimulatedProbeConfig | VideoProbeConfig | IgtlProbeConfig:
+    """The probe config for `--probe`: 'sim', 'sim:COLSxROWS', 'video:DEVICE|URL|FILE'
+    (device index, stream URL or video file), with `--calibration` and `--crop` for video, or
+    'igtl://HOST:PORT' (an OpenIGTLink server), with an optional `--calibration`."""
+    from resus.acquisition.factory import IgtlProbeConfig, SimulatedProbeConfig, VideoProbeConfig
     from sim.ultrasound.probe import LinearProbe
 
     kind, _, argument = text.partition(":")
+    if kind == "igtl":
+        if crop is not None:
+            raise ResusError("--crop applies to --probe video only")
+        host, port = parse_igtl_address(text)
+        return IgtlProbeConfig(host=host, port=port, calibration=calibration)
     if kind == "sim":
         if calibration is not None or crop is not None:
-            raise ResusError("--calibration and --crop apply to --probe video only")
+            raise ResusError(
+                "--calibration and --crop apply to --probe video only (--calibration to igtl too)"
+            )
         if not argument:
             return SimulatedProbeConfig(frame_rate=frame_rate)
         try:
@@ -65,8 +92,8 @@ def parse_probe(
         source = int(argument) if argument.isdigit() else argument
         box = None if crop is None else parse_numbers(crop, "--crop", count=4, kind=int)
         with flag_error("--crop"):
-            return VideoProbeConfig(source, calibration, crop=box)
-    raise ResusError(f"--probe: expected sim, sim:COLSxROWS or video:DEVICE|URL|FILE, got {text!r}")
+            return VideoProbeConfig(source, calibration, crop=box)  # type: ignore[arg-type]
+    raise ResusError(f"--probe: expected {PROBE_FORMS}, got {text!r}")
 
 
 def parse_robot(text: str, scene_config: SceneConfig) -> SimulatedRobotConfig | RTDERobotConfig:
@@ -126,7 +153,11 @@ def scan(
         str, typer.Option(help="'sim' (in-process MuJoCo UR3e) or the UR controller's address.")
     ],
     probe: Annotated[
-        str, typer.Option(help="'sim', 'sim:COLSxROWS', or video:DEVICE|URL|FILE (frame grabber).")
+        str,
+        typer.Option(
+            help="'sim', 'sim:COLSxROWS', video:DEVICE|URL|FILE (frame grabber) or "
+            "igtl://HOST:PORT (OpenIGTLink, e.g. PLUS)."
+        ),
     ],
     trajectory: Annotated[Path, typer.Option(help="Trajectory YAML (resus plan).")],
     out: Annotated[Path, typer.Option(help="Sweep file to write (.h5).")],
@@ -139,7 +170,8 @@ def scan(
         str | None, typer.Option(help="Subject recorded in the Sweep (default: the phantom's).")
     ] = None,
     calibration: Annotated[
-        Path | None, typer.Option(help="Probe calibration YAML (resus.probe/1) for --probe video.")
+        Path | None,
+        typer.Option(help="Probe calibration YAML (resus.probe/1) for --probe video or igtl."),
     ] = None,
     crop: Annotated[
         str | None, typer.Option(help="x,y,width,height of the image in the video (overrides).")
@@ -173,6 +205,15 @@ def scan(
     ] = 1e-3,
     grpc_port: Annotated[int, typer.Option(help="gRPC port of the live viewer.")] = 9876,
     web_port: Annotated[int, typer.Option(help="HTTP port of the served web viewer.")] = 9090,
+    igtl: Annotated[
+        int | None,
+        typer.Option(
+            "--igtl", metavar="PORT", help="Stream every frame over OpenIGTLink on this port."
+        ),
+    ] = None,
+    igtl_host: Annotated[
+        str, typer.Option(help="Address the OpenIGTLink stream listens on.")
+    ] = "127.0.0.1",
 ) -> None:
     """Scan along a planned trajectory and record a Sweep, watching it live in rerun."""
     from resus.acquisition.factory import SimulatedProbeConfig, make_probe, make_robot
@@ -184,8 +225,13 @@ def scan(
 
     if not out.parent.is_dir():
         raise ResusError("output folder does not exist", out.parent)
-    if probe.partition(":")[0] == "video" and robot == "sim":
-        raise ResusError("--probe video needs a real robot clock: use --robot HOST")
+    if probe.partition(":")[0] in ("video", "igtl") and robot == "sim":
+        kind = probe.partition(":")[0]
+        raise ResusError(f"--probe {kind} needs a real robot clock: use --robot HOST")
+    if igtl is not None:
+        from resus.sweep.igtl import check_port
+
+        check_port(igtl, "--igtl", allow_zero=True)
     if not volume_voxel > 0:
         raise ResusError(f"--volume-voxel must be positive, got {volume_voxel}")
     bounds = parse_numbers(workspace, "--workspace", count=6)
@@ -216,12 +262,16 @@ def scan(
             )
             Scanner(robot_device, probe_device, limits, settings).check_plan(plan)
             confirm_motion(yes)
-            session, listeners = None, ()
+            session, listeners = None, []
+            live_volume = None
             if rerun is not None or rerun_save is not None:
-                session, listeners = _live_listeners(
+                session, (logger, live_volume) = _live_listeners(
                     viewer, plan, probe_device, scene_config if simulated else None,
                     rerun, rerun_save, volume_every, volume_voxel, grpc_port, web_port,
                 )  # fmt: skip
+                listeners += [logger, live_volume]
+            if igtl is not None:
+                listeners.append(_igtl_listener(viewer, probe_device, igtl, igtl_host))
             scanner = Scanner(robot_device, probe_device, limits, settings, listeners)
             name = subject_name
             if name is None:
@@ -229,8 +279,8 @@ def scan(
             result = scanner.run(plan, out, source="sim" if simulated else "real", subject=name)
             devices.close()  # stop the control script and disconnect before lingering
             typer.echo(f"wrote {result.path}: {result.frames} frames over {result.duration:.2f} s")
-            if listeners:
-                listeners[1].log()
+            if live_volume is not None:
+                live_volume.log()
             if rerun_save is not None:
                 typer.echo(f"saved {rerun_save}")
             if session is not None and session.viewer_url:
@@ -238,6 +288,18 @@ def scan(
                 session.wait_until_interrupted()
     except RobotFault as fault:
         raise ResusError(f"robot {robot}: {fault}") from None
+
+
+def _igtl_listener(stack: contextlib.ExitStack, probe_device, port: int, host: str):
+    """An OpenIGTLink server streaming the scan's frames (closed with `stack`)."""
+    from resus.sweep.igtl import IMAGE_NAME, TRANSFORM_NAME, IgtlServer
+
+    server = stack.enter_context(IgtlServer(probe_device.image_to_probe, port, host))
+    typer.echo(
+        f"streaming OpenIGTLink on {server.address}: IMAGE {IMAGE_NAME}, TRANSFORM "
+        f"{TRANSFORM_NAME} (mm)"
+    )
+    return server
 
 
 def _live_listeners(

@@ -21,7 +21,12 @@ def _simulate_one(job: dict) -> tuple[str, int]:
     if isinstance(trajectory, str):
         trajectory = Trajectory.from_yaml(trajectory)
     result = simulate_sweep(
-        job["out"], scene, trajectory, seed=job["seed"], progress=job["progress"]
+        job["out"],
+        scene,
+        trajectory,
+        seed=job["seed"],
+        progress=job["progress"],
+        listeners=job.get("listeners", ()),
     )
     return str(result.path), result.frames
 
@@ -53,14 +58,25 @@ def simulate(
     seed: Annotated[int | None, typer.Option(help="Phantom seed (anatomy and speckle).")] = None,
     preview: Annotated[Path | None, typer.Option(help="Also save a contact sheet PNG.")] = None,
     jobs: Annotated[int, typer.Option(min=1, help="Worker processes for --subjects.")] = 2,
+    igtl: Annotated[
+        int | None,
+        typer.Option(
+            "--igtl", metavar="PORT", help="Stream every frame over OpenIGTLink on this port."
+        ),
+    ] = None,
+    igtl_host: Annotated[
+        str, typer.Option(help="Address the OpenIGTLink stream listens on.")
+    ] = "127.0.0.1",
 ) -> None:
     """Scan a simulated phantom with the simulated UR3e and write Sweeps with labels."""
     from resus.acquisition.patterns import LinearPattern
 
     if trajectory == "linear":
+        start_x, start_y = parse_numbers(start, "--start", count=2)
+        direction_x, direction_y = parse_numbers(direction, "--direction", count=2)
         plan: object = LinearPattern(
-            start=parse_numbers(start, "--start", count=2),
-            direction=parse_numbers(direction, "--direction", count=2),
+            start=(start_x, start_y),
+            direction=(direction_x, direction_y),
             length=length,
             speed=speed,
             contact_force=force if force > 0 else None,
@@ -72,10 +88,17 @@ def simulate(
     else:
         raise ResusError("--trajectory: neither 'linear' nor an existing file", trajectory)
     base = {"scene": scene, "phantom": phantom, "trajectory": plan, "seed": seed}
+    if igtl is not None and subjects is not None:
+        raise ResusError("--igtl streams one sweep: not with --subjects")
     if subjects is None:
         if not out.parent.is_dir():
             raise ResusError("output folder does not exist", out.parent)
-        _simulate_one({**base, "subject": subject, "out": out, "progress": True})
+        job = {**base, "subject": subject, "out": out, "progress": True}
+        if igtl is None:
+            _simulate_one(job)
+        else:
+            with _igtl_server(igtl, igtl_host) as server:
+                _simulate_one({**job, "listeners": [server]})
         outputs = [out]
     else:
         outputs = _simulate_many(base, parse_index_set(subjects, "--subjects"), out, jobs)
@@ -88,6 +111,21 @@ def simulate(
         with SweepReader(outputs[0]) as sweep:
             save_contact_sheet(sweep, preview)
         typer.echo(f"wrote {preview}")
+
+
+def _igtl_server(port: int, host: str):
+    """An OpenIGTLink server for the simulated probe's frames (its default geometry, the one
+    `simulate_sweep` images with)."""
+    from resus.acquisition.backends.simulated import SimulatedProbeConfig
+    from resus.sweep.igtl import IMAGE_NAME, TRANSFORM_NAME, IgtlServer, check_port
+
+    check_port(port, "--igtl", allow_zero=True)
+    server = IgtlServer(SimulatedProbeConfig().probe.image_to_probe(), port, host)
+    typer.echo(
+        f"streaming OpenIGTLink on {server.address}: IMAGE {IMAGE_NAME}, TRANSFORM "
+        f"{TRANSFORM_NAME} (mm)"
+    )
+    return server
 
 
 def _simulate_many(base: dict, subjects: list[int], folder: Path, jobs: int) -> list[Path]:

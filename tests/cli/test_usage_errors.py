@@ -61,6 +61,17 @@ BAD_VALUES: dict[tuple[str, ...], tuple[list[str], str]] = {
     ("sweep", "import-plus"): (["x.igs.mha", "--out", "{tmp}/no/x.h5"], "output folder"),
     ("sweep", "export-plus"): (["x.h5", "--out", "{tmp}/no/x.igs.mha"], "output folder"),
     ("sweep", "preview"): (["s.h5", "--out", "p", "--count", "0"], "Invalid value for '--count'"),
+    ("sweep", "stream"): (["s.h5", "--igtl", "x"], "Invalid value for '--igtl'"),
+    ("sweep", "import-ros"): (
+        ["b", "--image-topic", "/us", "--calibration", "c", "--out", "{tmp}/no/x.h5"],
+        "output folder",
+    ),
+    ("sweep", "export-ros"): (["x.h5", "--out", "{tmp}/no/x.mcap"], "output folder"),
+    ("sweep", "attach-labels"): (
+        ["x.h5", "--masks", "m", "--out", "{tmp}/no/x.h5"],
+        "output folder",
+    ),
+    ("sweep", "export-labels"): (["x.h5", "--out", "{tmp}/no/labels"], "output folder"),
     ("experiment", "phantom"): (["--out", "o", "--jobs", "x"], "Invalid value for '--jobs'"),
     ("experiment", "subjects"): (["--out", "o", "--seed", "x"], "Invalid value for '--seed'"),
 }

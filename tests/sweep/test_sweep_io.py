@@ -86,6 +86,7 @@ def test_writer_checks_each_frame_and_keeps_the_good_ones(tmp_path):
     sweep = sample_sweep(n=4)
     path = tmp_path / "s.h5"
     with SweepWriter(path, (24, 32), sweep.image_to_probe, with_labels=True) as writer:
+
         def labelled(i: int) -> SweepFrame:  # the file keeps labels, no wrench or joints
             return sweep.frame(i)._replace(wrench=None, joint_positions=None)
 

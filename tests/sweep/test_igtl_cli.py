@@ -1,0 +1,125 @@
+"""`resus sweep stream`, and `--igtl` on `scan` and `simulate`: a sweep replays over the real
+command line to a client; bad ports and flags are one line (in this process, as a user's
+shell would show them)."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from sweep_samples import sample_sweep
+
+from resus.acquisition.backends.igtl import IgtlProbe, IgtlProbeConfig, ProbeLinkLost
+from resus.cli.app import main
+from resus.cli.scan import parse_probe
+from resus.errors import ResusError
+from resus.sweep.io import write_sweep
+
+WAIT = 10.0
+
+
+def run_main(monkeypatch, capsys, *args: object) -> tuple[int, str, str]:
+    """`resus ARGS...` through `main` in this process: exit status, stdout, stderr."""
+    monkeypatch.setattr(sys, "argv", ["resus", *map(str, args)])
+    with pytest.raises(SystemExit) as exited:
+        main()
+    out, err = capsys.readouterr()
+    return exited.value.code, out, err
+
+
+def one_line_error(outcome: tuple[int, str, str], *fragments: str) -> None:
+    status, _, err = outcome
+    assert status == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    for fragment in fragments:
+        assert fragment in lines[0], (fragment, lines[0])
+
+
+def free_port() -> int:
+    with socket.create_server(("127.0.0.1", 0)) as probe:
+        return probe.getsockname()[1]
+
+
+def test_stream_replays_a_sweep_to_a_client(tmp_path):
+    sweep = sample_sweep(n=4, rows=32, cols=48, seed=51)
+    write_sweep(tmp_path / "scan.h5", sweep)
+    port = free_port()
+    command = [sys.executable, "-m", "resus", "sweep", "stream", str(tmp_path / "scan.h5"),
+               "--igtl", str(port), "--speed", "2"]  # fmt: skip
+    pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True}
+    with subprocess.Popen(command, **pipes) as run:
+        try:
+            line = run.stdout.readline()  # printed once it listens
+            assert "serving 4 frames" in line and f"on 127.0.0.1:{port}" in line, line
+            frames = []
+            with (
+                IgtlProbe(IgtlProbeConfig(port=port, timeout=WAIT)) as probe,
+                pytest.raises(ProbeLinkLost, match="the server closed the connection"),
+            ):
+                while True:  # every frame, then the end of the replay
+                    frames += probe.poll()
+                    time.sleep(0.01)
+            out, err = run.communicate(timeout=WAIT)
+        finally:
+            if run.poll() is None:
+                run.kill()
+                run.wait(WAIT)
+    assert run.returncode == 0, err
+    assert "sent 4 frames" in out
+    np.testing.assert_array_equal(np.stack([f.image for f in frames]), sweep.frames)
+    np.testing.assert_allclose(probe.image_to_probe, sweep.image_to_probe, atol=1e-7)
+
+
+def test_bad_ports_and_flags_are_one_line(monkeypatch, capsys, tmp_path):
+    write_sweep(tmp_path / "scan.h5", sample_sweep(n=2))
+    run = (monkeypatch, capsys)
+    stream = ["sweep", "stream", tmp_path / "scan.h5", "--igtl"]
+    one_line_error(
+        run_main(*run, *stream, 70000), "--igtl must be an integer in 0..65535, got 70000"
+    )
+    with socket.create_server(("127.0.0.1", 0)) as taken:
+        port = taken.getsockname()[1]
+        one_line_error(
+            run_main(*run, *stream, port),
+            f"OpenIGTLink server cannot listen on 127.0.0.1:{port}: the port is already in use",
+        )
+    one_line_error(run_main(*run, *stream, 0, "--speed", "0"), "--speed must be positive, got 0.0")
+    scan = ["scan", "--robot", "sim", "--trajectory", "t.yaml", "--out", tmp_path / "s.h5"]
+    one_line_error(
+        run_main(*run, *scan, "--probe", "sim", "--igtl", 70000),
+        "--igtl must be an integer in 0..65535",
+    )
+    one_line_error(
+        run_main(*run, *scan, "--probe", "igtl://127.0.0.1:18944"),
+        "--probe igtl needs a real robot clock: use --robot HOST",
+    )
+    one_line_error(
+        run_main(*run, "simulate", "--subjects", "0-1", "--out", tmp_path, "--igtl", 18944),
+        "--igtl streams one sweep: not with --subjects",
+    )
+
+
+def test_probe_flag_for_an_igtl_server(tmp_path):
+    config = parse_probe("igtl://10.0.0.7:18945", 30.0, tmp_path / "probe.yaml", None)
+    assert config == IgtlProbeConfig(
+        host="10.0.0.7", port=18945, calibration=tmp_path / "probe.yaml"
+    )
+    assert parse_probe("igtl://127.0.0.1:18944", 30.0, None, None).calibration is None
+    for text, crop, message in (
+        (
+            "igtl://nowhere",
+            None,
+            "--probe: expected igtl://HOST:PORT (e.g. igtl://127.0.0.1:18944)",
+        ),
+        ("igtl://h:99999", None, "--probe igtl port must be an integer in 1..65535, got 99999"),
+        ("igtl://h:1", "0,0,4,4", "--crop applies to --probe video only"),
+        ("usb", None, "--probe: expected sim, sim:COLSxROWS or video:DEVICE|URL|FILE, or igtl://"),
+    ):
+        with pytest.raises(ResusError) as error:
+            parse_probe(text, 30.0, None, crop)
+        assert message in str(error.value)
