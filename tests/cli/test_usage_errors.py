@@ -13,11 +13,11 @@ from importlib.metadata import entry_points
 
 import pytest
 import typer
-from cli_runner import resus
+from cli_runner import resus, run_main
 
 from resus import __version__
 from resus.cli import sweep as sweep_cli
-from resus.cli.app import app, main
+from resus.cli.app import app
 
 
 def command_paths() -> dict[tuple[str, ...], object]:
@@ -75,15 +75,6 @@ BAD_VALUES: dict[tuple[str, ...], tuple[list[str], str]] = {
     ("experiment", "phantom"): (["--out", "o", "--jobs", "x"], "Invalid value for '--jobs'"),
     ("experiment", "subjects"): (["--out", "o", "--seed", "x"], "Invalid value for '--seed'"),
 }
-
-
-def run_main(monkeypatch, capsys, *args: object) -> tuple[int, str, str]:
-    """`resus ARGS...` through `main` in this process: exit status, stdout, stderr."""
-    monkeypatch.setattr(sys, "argv", ["resus", *map(str, args)])
-    with pytest.raises(SystemExit) as exited:
-        main()
-    out, err = capsys.readouterr()
-    return exited.value.code, out, err
 
 
 def assert_usage_error(status: int, err: str, path: tuple[str, ...] | None, *fragments: str):

@@ -5,24 +5,12 @@ line and leaves the sweep as it was."""
 from __future__ import annotations
 
 import dataclasses
-import sys
 
 import numpy as np
-import pytest
+from cli_runner import run_main
 from sweep_samples import sample_sweep
 
-from resus.cli.app import main
 from resus.sweep.io import read_sweep, write_sweep
-
-
-def run_main(monkeypatch, capsys, *args: object) -> tuple[int, str, str]:
-    """`resus ARGS...` through `main` in this process (a fresh interpreter costs seconds):
-    exit status, stdout, stderr."""
-    monkeypatch.setattr(sys, "argv", ["resus", *map(str, args)])
-    with pytest.raises(SystemExit) as exited:
-        main()
-    out, err = capsys.readouterr()
-    return exited.value.code, out, err
 
 
 def test_export_then_attach_through_the_command_line(monkeypatch, capsys, tmp_path):

@@ -11,38 +11,15 @@ import time
 
 import numpy as np
 import pytest
+from cli_runner import free_port, one_line_error, run_main
 from sweep_samples import sample_sweep
 
 from resus.acquisition.backends.igtl import IgtlProbe, IgtlProbeConfig, ProbeLinkLost
-from resus.cli.app import main
 from resus.cli.scan import parse_probe
 from resus.errors import ResusError
 from resus.sweep.io import write_sweep
 
 WAIT = 10.0
-
-
-def run_main(monkeypatch, capsys, *args: object) -> tuple[int, str, str]:
-    """`resus ARGS...` through `main` in this process: exit status, stdout, stderr."""
-    monkeypatch.setattr(sys, "argv", ["resus", *map(str, args)])
-    with pytest.raises(SystemExit) as exited:
-        main()
-    out, err = capsys.readouterr()
-    return exited.value.code, out, err
-
-
-def one_line_error(outcome: tuple[int, str, str], *fragments: str) -> None:
-    status, _, err = outcome
-    assert status == 2, err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), err
-    for fragment in fragments:
-        assert fragment in lines[0], (fragment, lines[0])
-
-
-def free_port() -> int:
-    with socket.create_server(("127.0.0.1", 0)) as probe:
-        return probe.getsockname()[1]
 
 
 def test_stream_replays_a_sweep_to_a_client(tmp_path):

@@ -3,34 +3,11 @@ a ROS 2 MCAP bag and back, and a bad invocation is one line."""
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
-import pytest
+from cli_runner import one_line_error, run_main
 from sweep_samples import sample_sweep
 
-from resus.cli.app import main
 from resus.sweep.io import read_sweep, write_sweep
-
-
-def run_main(monkeypatch, capsys, *args: object) -> tuple[int, str, str]:
-    """`resus ARGS...` through `main` in this process (a fresh interpreter costs seconds):
-    exit status, stdout, stderr."""
-    monkeypatch.setattr(sys, "argv", ["resus", *map(str, args)])
-    with pytest.raises(SystemExit) as exited:
-        main()
-    out, err = capsys.readouterr()
-    return exited.value.code, out, err
-
-
-def one_line_error(outcome: tuple[int, str, str], *fragments: str) -> str:
-    status, _, err = outcome
-    assert status == 2, err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), err
-    for fragment in fragments:
-        assert fragment in lines[0], (fragment, lines[0])
-    return lines[0]
 
 
 def test_export_then_import_through_the_command_line(monkeypatch, capsys, tmp_path):

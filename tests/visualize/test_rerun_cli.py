@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -14,7 +13,7 @@ import numpy as np
 import pytest
 import rerun as rr
 import typer
-from cli_runner import resus
+from cli_runner import free_port, resus
 from rerun_readback import Recording
 from sweep_samples import sample_sweep
 from typer.testing import CliRunner
@@ -132,12 +131,6 @@ def test_dense_view_of_a_sheared_grid_is_refused_before_recording(app, inputs, t
     assert isinstance(result.exception, ResusError)
     assert "orthogonal" in str(result.exception)
     assert not out.exists()
-
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
 
 
 def listening_addresses(port: int) -> set[str]:
