@@ -123,7 +123,8 @@ def main() -> None:
     except (KeyboardInterrupt, typer.Abort):
         _fail("interrupted", status=INTERRUPTED_STATUS)
     except exceptions.UsageError as error:
-        if isinstance(error, getattr(exceptions, "NoArgsIsHelpError", ())):
+        no_args_is_help = getattr(exceptions, "NoArgsIsHelpError", None)  # not in every click
+        if no_args_is_help is not None and isinstance(error, no_args_is_help):
             help_text = error.format_message()  # empty when rich has printed the help already
             if help_text:
                 typer.echo(help_text)

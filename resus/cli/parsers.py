@@ -10,7 +10,7 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Callable, Collection, Iterator
-from typing import TypeVar
+from typing import TypeVar, overload
 
 from resus.errors import ResusError
 
@@ -19,13 +19,29 @@ T = TypeVar("T")
 SEPARATOR_NAMES = {",": "comma", ":": "colon"}
 
 
+@overload
+def parse_numbers(
+    text: str, option: str, count: int | None = None, *, kind: type[int], separator: str = ","
+) -> tuple[int, ...]: ...
+
+
+@overload
+def parse_numbers(
+    text: str,
+    option: str,
+    count: int | None = None,
+    kind: type[float] = float,
+    separator: str = ",",
+) -> tuple[float, ...]: ...
+
+
 def parse_numbers(
     text: str,
     option: str,
     count: int | None = None,
     kind: type[int] | type[float] = float,
     separator: str = ",",
-) -> tuple[float, ...]:
+) -> tuple[int, ...] | tuple[float, ...]:
     """'a,b,c' -> finite numbers of `kind` (exactly `count` of them when given)."""
     try:
         values = tuple(kind(part) for part in text.split(separator))

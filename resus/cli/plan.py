@@ -6,6 +6,7 @@ on it; bad input is one line on stderr and exit status 2.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated
 
@@ -31,7 +32,7 @@ PATTERN_FLAGS = {
 PATTERN_DEFAULT = "(default: the pattern's)"
 
 
-def make_pattern(name: str, given: dict[str, object]):
+def make_pattern(name: str, given: Mapping[str, object]):
     """The named pattern with the flags that were given; the others keep the pattern's own
     defaults (one place for each: its dataclass). A flag the pattern does not take is an error."""
     import dataclasses

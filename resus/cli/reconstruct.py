@@ -81,7 +81,10 @@ def register(app: typer.Typer) -> None:
             raise ResusError(
                 "--voxels sets the RANSAC grid's counts; the aabb grid takes --spacing"
             )
-        shape = None if voxels is None else parse_numbers(voxels, "--voxels", count=3, kind=int)
+        shape: tuple[int, int, int] | None = None
+        if voxels is not None:
+            nx, ny, nz = parse_numbers(voxels, "--voxels", count=3, kind=int)
+            shape = (nx, ny, nz)
         settings = settings_from_flags(
             ReconstructionSettings,
             method=("--method", method),
@@ -122,6 +125,8 @@ def register(app: typer.Typer) -> None:
             f"{result.filled.mean():.1%} filled)"
         )
         if labels_out is not None:
+            # --labels-out needs sweep labels (checked above), so reconstruct made a label volume
+            assert result.labels is not None
             write_volume(labels_out, result.labels, grid, label_names, subject=subject)
             typer.echo(f"wrote {labels_out}")
         if png is not None:

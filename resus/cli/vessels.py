@@ -70,9 +70,15 @@ def register(app: typer.Typer) -> None:
             phantom or sweep_phantom,
             subject if subject is not None else sweep_subject,
         )
-        if labels_from_sweep and sweep.labels is None:
-            raise ResusError("--labels-from-sweep given but the sweep has no labels", sweep_path)
-        labels = sweep.labels if labels_from_sweep else segment_frames(sweep.frames, model)
+        if labels_from_sweep:
+            if sweep.labels is None:
+                raise ResusError(
+                    "--labels-from-sweep given but the sweep has no labels", sweep_path
+                )
+            labels = sweep.labels
+        else:
+            assert model is not None  # exactly one of --model and --labels-from-sweep (above)
+            labels = segment_frames(sweep.frames, model)
         sources = {
             "sweep": str(sweep_path),
             "labels": "sweep" if labels_from_sweep else f"model {model}",

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import contextlib
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from resus.cli.parsers import parse_choice
 from resus.errors import ResusError
+
+if TYPE_CHECKING:
+    from resus.sweep.model import Sweep
 
 MAX_RESLICES = 200
 GRID_TOLERANCE = 1e-6
@@ -126,7 +129,7 @@ def register(app: typer.Typer) -> None:
                 session.wait_until_interrupted()
 
 
-def _predicted_labels(path: Path, sweep: object):
+def _predicted_labels(path: Path, sweep: Sweep):
     """The labels of the sweep file `path`, checked against `sweep`'s frames."""
     from resus.sweep.io import read_sweep
 

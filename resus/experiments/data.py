@@ -134,7 +134,8 @@ def _prepare_in_worker(job: tuple[Path, Scan, ScanSettings, int]) -> None:
         import numba
 
         share = available_cores() // jobs
-        numba.set_num_threads(max(1, min(numba.config.NUMBA_NUM_THREADS, share)))
+        threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
+        numba.set_num_threads(max(1, min(threads, share)))
     prepare_scan(out, scan, settings)
 
 
@@ -247,6 +248,7 @@ def _reconstruct(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
         labels=sweep.labels, n_classes=len(names),
     )  # fmt: skip
     write_volume(data.volume, intensity_to_uint8(result.volume), grid)
+    assert result.labels is not None  # labels (checked above) and their names were given
     write_volume(data.labels, result.labels, grid, names)
 
 

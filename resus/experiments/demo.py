@@ -134,6 +134,8 @@ class _HeldOut:
     files: SubjectData
     sweep: Sweep
     scene: SceneConfig
+    labels: np.ndarray
+    """The sweep's true labels (`sweep.labels`, checked to be there)."""
 
     @classmethod
     def load(cls, files: SubjectData) -> _HeldOut:
@@ -142,7 +144,10 @@ class _HeldOut:
 
         sweep = read_sweep(files.sweep)
         phantom, subject = parse_subject_id(sweep.subject)
-        return cls(files, sweep, resolve_scene("default", phantom, subject))
+        scene = resolve_scene("default", phantom, subject)
+        if sweep.labels is None:
+            raise ResusError("the held-out sweep has no labels", files.sweep)
+        return cls(files, sweep, scene, sweep.labels)
 
 
 def _train_regimes(
@@ -181,7 +186,7 @@ def _map_vessels(
     """Vessel maps of the held-out sweep from its true labels and from each model's."""
     from resus.vessels.pipeline import map_vessels
 
-    labels = {"ground_truth": test.sweep.labels, **predictions}
+    labels = {"ground_truth": test.labels, **predictions}
     sweep_name = str(test.files.sweep)
     return {
         source: map_vessels(
@@ -212,7 +217,7 @@ def _pictures(folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray]) 
         save_contact_sheet(
             folder / "reslices.png", [reslices[int(i)] for i in chosen], title="held-out reslices"
         )
-    truth = test.sweep.labels
+    truth = test.labels
     best = example_index(truth)
     indices = sorted({best, len(truth) // 4, 3 * len(truth) // 4})[:PICTURE_FRAMES]
     examples = [
@@ -276,6 +281,11 @@ def _summary(
 ) -> dict:
     """Everything the report shows, as written to summary.json (paths relative to `folder`)."""
     test = data[-1]
+    iou = {}
+    for regime, run in runs.items():
+        # _train_regimes tests every regime on the last subject, so each run has a test IoU
+        assert run.test_iou is not None
+        iou[regime] = run.test_iou.to_dict()
     return {
         "settings": dataclasses.asdict(settings),
         "subjects": [d.subject for d in data],
@@ -284,7 +294,7 @@ def _summary(
             "test": _frame_count(test.sweep),
             "train": sum(_frame_count(d.sweep) for d in data[:-1]),
         },
-        "iou": {regime: run.test_iou.to_dict() for regime, run in runs.items()},
+        "iou": iou,
         "best_epoch": {regime: run.training.best_epoch for regime, run in runs.items()},
         "vessels": {
             source: {

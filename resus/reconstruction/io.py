@@ -10,6 +10,7 @@ grids (the RANSAC parallelepiped) keep their exact step vectors.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -44,7 +45,7 @@ def write_volume(
     path: str | Path,
     array: np.ndarray,
     grid: VolumeGrid,
-    label_names: list[str] | None = None,
+    label_names: Sequence[str] | None = None,
     subject: str | None = None,
 ) -> Path:
     """Write `array` (nx, ny, nz) on `grid` as NRRD or MetaImage (by suffix), in millimetres.

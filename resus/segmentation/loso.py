@@ -309,6 +309,8 @@ def run_loso(
             out_dir=None if out_dir is None else Path(out_dir) / regime / subject,
             progress=progress,
         )
+        # the split tests a subject of `frames`, so it has test frames and a test IoU
+        assert run.test_iou is not None
         result.iou.setdefault(regime, {})[subject] = run.test_iou
         if on_run is not None:
             on_run(regime, subject, run)

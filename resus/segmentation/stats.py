@@ -29,19 +29,19 @@ def paired_t_test(a: Sequence[float], b: Sequence[float]) -> PairedTest:
 
     Needs at least 2 pairs; with differences that do not vary the t statistic is undefined.
     """
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    if a.shape != b.shape or a.ndim != 1:
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if x.shape != y.shape or x.ndim != 1:
         raise ValueError(
-            f"paired t-test needs two equal-length 1-D samples, got {a.shape}, {b.shape}"
+            f"paired t-test needs two equal-length 1-D samples, got {x.shape}, {y.shape}"
         )
-    n = len(a)
+    n = len(x)
     if n < 2:
         return PairedTest(n, None, None, None, f"needs at least 2 subjects, got {n}")
-    difference = a - b
+    difference = x - y
     mean_difference = float(difference.mean())
     if np.allclose(difference, difference[0], rtol=1e-12, atol=1e-12):  # rounding only
         return PairedTest(
             n, mean_difference, None, None, "differences are identical for every subject"
         )
-    result = stats.ttest_rel(a, b)
+    result = stats.ttest_rel(x, y)
     return PairedTest(n, mean_difference, float(result.statistic), float(result.pvalue))

@@ -77,6 +77,8 @@ def save_needle_slice(
     from matplotlib.figure import Figure
 
     if plan.safe:
+        # plan_needle sets the tip and direction of every safe plan
+        assert plan.target_point is not None and plan.direction is not None
         centre, along = plan.target_point, plan.direction
     elif len(track.positions):
         middle = len(track.positions) // 2

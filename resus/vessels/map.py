@@ -18,6 +18,7 @@ is the 0.5 level of the share over its parts' territory only. Surfaces are Taubi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -137,18 +138,29 @@ def build_vessel_map(
     if labels.max(initial=0) > VEIN:
         raise ResusError(f"labels must be 0, 1 (artery) or 2 (vein), found {labels.max()}")
     grid = vessel_grid(labels, poses, image_to_probe, settings.spacing, settings.margin)
-    common = {"image_to_probe": image_to_probe, "grid": grid, "settings": settings.reconstruction}
     bmode = reconstruct(
         frames,
         poses,
+        image_to_probe=image_to_probe,
+        grid=grid,
+        settings=settings.reconstruction,
         labels=labels,
         n_classes=len(LABEL_NAMES),
         progress=progress,
         total=len(poses),
-        **common,
     )
+    # labels and n_classes >= 2 were given, so the reconstruction has a label volume
+    assert bmode.labels is not None
     indicator = (np.asarray(label > 0, dtype=np.float32) for label in labels)
-    share = reconstruct(indicator, poses, progress=progress, total=len(poses), **common)
+    share = reconstruct(
+        indicator,
+        poses,
+        image_to_probe=image_to_probe,
+        grid=grid,
+        settings=settings.reconstruction,
+        progress=progress,
+        total=len(poses),
+    )
     vessel_share = np.where(share.filled, share.volume, 0.0).astype(np.float32)
     part_index, parts = find_parts(
         vessel_share > SURFACE_LEVEL, bmode.labels, grid, frame, settings.min_part_volume
@@ -202,7 +214,7 @@ def surface_mesh(
     return mesh
 
 
-def segment_frames(frames: np.ndarray, checkpoint: str, progress: bool = True) -> np.ndarray:
+def segment_frames(frames: np.ndarray, checkpoint: Path, progress: bool = True) -> np.ndarray:
     """Label images for every frame from a segmentation checkpoint (`resus train`'s output)."""
     from resus.segmentation.checkpoint import load_checkpoint
     from resus.segmentation.inference import predict

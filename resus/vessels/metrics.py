@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -209,7 +210,7 @@ def score_map(
             surface=surface_scores(
                 mesh_in_phantom,
                 phantom.mesh(name, TRUTH_MESH_RESOLUTION),
-                lambda points, label=label: phantom.vessel_sdf(points, label),
+                partial(phantom.vessel_sdf, label=label),
                 in_region,
                 seed + 2 * label,
             ),

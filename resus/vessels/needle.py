@@ -113,6 +113,8 @@ class NeedlePlan:
 
     def path(self, step: float) -> np.ndarray:
         """Points (K, 3) every `step` metres from the entry to the tip."""
+        if self.entry is None or self.target_point is None:
+            raise ResusError(f"no needle path: {self.reason}")
         return path_points(self.entry, self.target_point, step)
 
     def to_dict(self) -> dict:

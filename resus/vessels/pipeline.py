@@ -88,7 +88,7 @@ class VesselMapResult:
 
     def to_dict(self) -> dict:
         """JSON-able form, as vessels.json holds it (`needle_truth` only where checked)."""
-        data = {
+        data: dict[str, object] = {
             **self.sources,
             "scene": {
                 **self.scene.to_dict(),
@@ -215,7 +215,8 @@ def write_meshes(out: Path, meshes: dict[str, trimesh.Trimesh]) -> list[Path]:
             written.append(out / f"{name}.{suffix}")
             in_mm.export(written[-1])
         coloured = mesh.copy()
-        coloured.visual.face_colors = [*label_colour(VESSEL_CLASSES[name]), 255]
+        # trimesh types `visual` as a union; an untextured mesh's is ColorVisuals
+        coloured.visual.face_colors = [*label_colour(VESSEL_CLASSES[name]), 255]  # type: ignore[union-attr]
         scene.add_geometry(coloured, geom_name=name)
     written.append(out / "vessel_map.glb")
     scene.export(written[-1])
@@ -231,5 +232,8 @@ def _truth_in_box(
     for name in VESSEL_CLASSES:
         mesh = truth.mesh(name, 0.4e-3).apply_transform(phantom_to_base)
         keep = lookup_nearest(vessel_map.grid, inside, mesh.triangles_center)
-        meshes[name] = mesh.submesh([np.flatnonzero(keep)], append=True)
+        cut = mesh.submesh([np.flatnonzero(keep)], append=True)
+        if not isinstance(cut, trimesh.Trimesh):  # submesh gives [] when it keeps no face
+            raise ResusError(f"the phantom's {name} surface lies wholly outside the map's grid")
+        meshes[name] = cut
     return meshes

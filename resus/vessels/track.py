@@ -76,7 +76,8 @@ def cross_sections(
     """All blobs of every slice across `axis` (round ones, and elongated ones)."""
     in_plane = [a for a in range(3) if a != axis]
     pixel_area = float(np.linalg.norm(np.cross(grid.axes[in_plane[0]], grid.axes[in_plane[1]])))
-    round_sections, elongated = [], []
+    round_sections: list[CrossSection] = []
+    elongated: list[CrossSection] = []
     for k in range(grid.shape[axis]):
         blobs, count = ndimage.label(np.take(mask, k, axis=axis))
         for blob in range(1, count + 1):
