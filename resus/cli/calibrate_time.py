@@ -14,6 +14,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from resus.cli.options import PhantomOption, SceneOption
 from resus.cli.parsers import parse_numbers, parse_range
 from resus.errors import ResusError
 
@@ -53,8 +54,8 @@ def calibration_plan(
     speed: Annotated[float, typer.Option(help="Probe speed (m/s).")] = 0.01,
     force: Annotated[float, typer.Option(help="Contact force (N); 0: position control.")] = 4.0,
     frame_rate: Annotated[float, typer.Option(help="Frames per second.")] = 30.0,
-    scene: Annotated[str, typer.Option(help="Scene name or YAML path.")] = "default",
-    phantom: Annotated[str | None, typer.Option(help="Phantom spec name or YAML path.")] = None,
+    scene: SceneOption = "default",
+    phantom: PhantomOption = None,
 ) -> None:
     """Write an oscillating calibration trajectory on the scene's phantom."""
     from resus.acquisition.calibration.temporal import oscillation

@@ -12,6 +12,7 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.options import PhantomOption, SceneOption, SubjectOption
 from resus.cli.parsers import parse_choice, parse_numbers, settings_from_flags
 from resus.errors import ResusError
 
@@ -73,11 +74,9 @@ def plan(
         float | None, typer.Option(help="Multipass/raster: pass spacing (m).")
     ] = None,
     voxel_size: Annotated[float, typer.Option(help="Intended voxel size (m).")] = 0.5e-3,
-    scene: Annotated[str, typer.Option(help="Scene name (assets/scenes) or YAML path.")] = (
-        "default"
-    ),
-    phantom: Annotated[str | None, typer.Option(help="Phantom spec name or YAML path.")] = None,
-    subject: Annotated[int | None, typer.Option(help="Subject variant of the phantom.")] = None,
+    scene: SceneOption = "default",
+    phantom: PhantomOption = None,
+    subject: SubjectOption = None,
     report: Annotated[Path | None, typer.Option(help="Folder for report.md and PNGs.")] = None,
     simulate: Annotated[
         bool, typer.Option(help="Also scan it in simulation and measure the holes.")

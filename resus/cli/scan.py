@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Annotated
 import numpy as np
 import typer
 
+from resus.cli.options import PhantomOption, SceneOption, SubjectOption
 from resus.cli.parsers import flag_error, parse_numbers, settings_from_flags
 from resus.errors import ResusError
 
@@ -161,11 +162,9 @@ def scan(
     ],
     trajectory: Annotated[Path, typer.Option(help="Trajectory YAML (resus plan).")],
     out: Annotated[Path, typer.Option(help="Sweep file to write (.h5).")],
-    scene: Annotated[
-        str, typer.Option(help="Scene (assets/scenes name or YAML): the simulated phantom.")
-    ] = "default",
-    phantom: Annotated[str | None, typer.Option(help="Phantom spec name or YAML path.")] = None,
-    subject: Annotated[int | None, typer.Option(help="Subject variant of the phantom.")] = None,
+    scene: SceneOption = "default",
+    phantom: PhantomOption = None,
+    subject: SubjectOption = None,
     subject_name: Annotated[
         str | None, typer.Option(help="Subject recorded in the Sweep (default: the phantom's).")
     ] = None,

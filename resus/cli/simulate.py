@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.options import PhantomOption, SceneOption, SubjectOption
 from resus.cli.parsers import parse_index_set, parse_numbers
 from resus.errors import ResusError
 
@@ -33,11 +34,9 @@ def _simulate_one(job: dict) -> tuple[str, int]:
 
 def simulate(
     out: Annotated[Path, typer.Option(help="Sweep file (.h5), or a folder with --subjects.")],
-    scene: Annotated[
-        str, typer.Option(help="Scene name (assets/scenes) or YAML path.")
-    ] = "default",
-    phantom: Annotated[str | None, typer.Option(help="Phantom spec name or YAML path.")] = None,
-    subject: Annotated[int | None, typer.Option(help="Subject variant of the phantom.")] = None,
+    scene: SceneOption = "default",
+    phantom: PhantomOption = None,
+    subject: SubjectOption = None,
     subjects: Annotated[
         str | None, typer.Option(help="Several subjects, e.g. 0-7: one sweep each, both cores.")
     ] = None,

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from resus.cli.options import SubjectOption
 from resus.cli.parsers import parse_choice
 from resus.errors import ResusError
 
@@ -48,7 +49,7 @@ def register(app: typer.Typer) -> None:
             str | None,
             typer.Option(help="Scene name (assets/scenes) or YAML path: draw its phantom."),
         ] = None,
-        subject: Annotated[int | None, typer.Option(help="Subject variant of the phantom.")] = None,
+        subject: SubjectOption = None,
         rerun_save: Annotated[
             Path | None, typer.Option("--rerun-save", help="Save the recording to FILE.rrd.")
         ] = None,

@@ -1,0 +1,11 @@
+"""Options that several commands share, declared once: the scene and its phantom subject."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+SceneOption = Annotated[str, typer.Option(help="Scene name (assets/scenes) or YAML path.")]
+PhantomOption = Annotated[str | None, typer.Option(help="Phantom spec name or YAML path.")]
+SubjectOption = Annotated[int | None, typer.Option(help="Subject variant of the phantom.")]
