@@ -17,6 +17,7 @@ is the 0.5 level of the share over its parts' territory only. Surfaces are Taubi
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -138,29 +139,15 @@ def build_vessel_map(
     if labels.max(initial=0) > VEIN:
         raise ResusError(f"labels must be 0, 1 (artery) or 2 (vein), found {labels.max()}")
     grid = vessel_grid(labels, poses, image_to_probe, settings.spacing, settings.margin)
-    bmode = reconstruct(
-        frames,
-        poses,
-        image_to_probe=image_to_probe,
-        grid=grid,
-        settings=settings.reconstruction,
-        labels=labels,
-        n_classes=len(LABEL_NAMES),
-        progress=progress,
-        total=len(poses),
-    )
+    compound = functools.partial(
+        reconstruct, poses=poses, image_to_probe=image_to_probe, grid=grid,
+        settings=settings.reconstruction, progress=progress, total=len(poses),
+    )  # fmt: skip
+    bmode = compound(frames, labels=labels, n_classes=len(LABEL_NAMES))
     # labels and n_classes >= 2 were given, so the reconstruction has a label volume
     assert bmode.labels is not None
     indicator = (np.asarray(label > 0, dtype=np.float32) for label in labels)
-    share = reconstruct(
-        indicator,
-        poses,
-        image_to_probe=image_to_probe,
-        grid=grid,
-        settings=settings.reconstruction,
-        progress=progress,
-        total=len(poses),
-    )
+    share = compound(indicator)
     vessel_share = np.where(share.filled, share.volume, 0.0).astype(np.float32)
     part_index, parts = find_parts(
         vessel_share > SURFACE_LEVEL, bmode.labels, grid, frame, settings.min_part_volume
