@@ -124,6 +124,7 @@ class KinematicArm:
 
     def _comply(self, pose: np.ndarray) -> np.ndarray:
         """Replace the target along compliant axes: free-space motion at the speed limit."""
+        assert self._force is not None  # called only while force mode is on
         task_frame, selection, wrench = self._force
         current = self.tcp_pose()
         rotation = task_frame[:3, :3]
