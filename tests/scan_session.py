@@ -28,6 +28,8 @@ FRAME_RATE = 10.0
 """Frames per second of the test plans."""
 WATCH_PERIOD = 0.002
 """How often the watcher reads the controller (s): one control period."""
+PACKET_TRIES = 5
+"""Reads of one RTDE state packet before taking a mixed one (see `read_packet`)."""
 
 
 def default_scene_and_phantom():
@@ -67,6 +69,20 @@ class Watched:
     """(N,) actual TCP linear speeds (m/s)."""
 
 
+def read_packet(receive: rtde_receive.RTDEReceiveInterface) -> tuple[float, np.ndarray, np.ndarray]:
+    """Timestamp, actual TCP pose (UR vector) and TCP speed of one RTDE state packet.
+
+    ur_rtde's receive thread may replace its packet between two getter calls, and a pose
+    paired with the next packet's timestamp is a control period of motion off: the
+    timestamp is read again after the values, and all of them again when it changed."""
+    for _ in range(PACKET_TRIES):
+        stamp = receive.getTimestamp()
+        pose, speed = receive.getActualTCPPose(), receive.getActualTCPSpeed()
+        if receive.getTimestamp() == stamp:
+            break
+    return stamp, np.array(pose), np.array(speed)
+
+
 def scan_and_watch(host: str, tmp_path: Path, *args: str) -> Watched:
     """Run `resus scan --robot HOST ARGS`, sampling the controller until it exits."""
     command = [sys.executable, "-c", "from resus.cli.app import main; main()", "scan"]
@@ -87,11 +103,11 @@ def scan_and_watch(host: str, tmp_path: Path, *args: str) -> Watched:
                     raise AssertionError("resus scan hung")
                 with contextlib.suppress(RuntimeError):
                     if receive.isConnected():
-                        stamp = receive.getTimestamp()
+                        stamp, pose, speed = read_packet(receive)
                         if not times or stamp > times[-1]:
                             times.append(stamp)
-                            poses.append(receive.getActualTCPPose())
-                            speeds.append(np.linalg.norm(receive.getActualTCPSpeed()[:3]))
+                            poses.append(pose)
+                            speeds.append(np.linalg.norm(speed[:3]))
                 time.sleep(WATCH_PERIOD)
             ended_at = time.monotonic()
     finally:

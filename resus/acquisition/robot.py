@@ -6,6 +6,8 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
+from resus.errors import ResusError
+
 
 class Robot(ABC):
     """An arm holding the probe. Poses are 4x4 TCP-in-base matrices (metres).
@@ -73,5 +75,7 @@ class Robot(ABC):
         self.close()
 
 
-class RobotFault(RuntimeError):
-    """The robot stopped on its own or stopped answering (protective stop, lost link)."""
+class RobotFault(ResusError):
+    """The robot stopped on its own or stopped answering (protective stop, lost link).
+
+    A `ResusError`: the command line prints its one-line reason, without a traceback."""

@@ -29,7 +29,8 @@ def register(app: typer.Typer) -> None:
             list[str] | None,
             typer.Option(
                 help="Injected fault, repeatable: drop@T, drop@T+D, protective-stop@T, "
-                "latency=L, jitter=J (seconds on the emulator clock)."
+                "latency=L, jitter=J (seconds). T on the emulator clock, or motion+S: S "
+                "seconds after the first motion command (e.g. protective-stop@motion+6)."
             ),
         ] = None,
         seed: Annotated[int, typer.Option(help="Seed of the jitter fault.")] = 0,

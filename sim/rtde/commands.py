@@ -100,6 +100,8 @@ IMPLEMENTED = STREAMING | {
     STOP_SCRIPT,
 }
 """Command ids served natively (WATCHDOG is sent as NO_CMD, id 0, and needs nothing)."""
+MOTION = frozenset({MOVEJ, MOVEL, SERVOJ, SERVOL, SPEEDJ, SPEEDL})
+"""Commands that set the arm moving: the first one starts the clock of motion-relative faults."""
 
 
 def command_name(command: int) -> str:

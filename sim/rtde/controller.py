@@ -13,7 +13,9 @@ from __future__ import annotations
 import logging
 import re
 import threading
+from collections import deque
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -122,7 +124,8 @@ class Controller:
         self.arm = arm
         self.settings = settings
         self.lock = threading.RLock()
-        self.inputs: dict[str, object] = {}
+        self.inputs: dict[str, Any] = {}  # decoded RTDE input fields: numbers by name
+        self._pending_inputs: deque[dict[str, Any]] = deque()
         self.registers: dict[str, object] = {}
         self.robot_mode = ROBOT_MODE_RUNNING
         self.safety_mode = SAFETY_NORMAL
@@ -131,6 +134,8 @@ class Controller:
         self.handshake = READY
         self.register_offset = 0
         self.motion: Motion | None = None
+        self.motion_started_at: float | None = None
+        """Arm time (s) of the first motion command, for motion-relative faults."""
         self.async_motion: Motion | None = None
         self._async_id = 0
         self._async_writes = 0
@@ -146,9 +151,26 @@ class Controller:
     # -- inputs from RTDE clients and the dashboard ------------------------------------
 
     def write_inputs(self, values: dict[str, object]) -> None:
-        """Input variables from a client's data packet (applied at the next cycle)."""
+        """Input variables from a client's data packet, applied in order by the next cycles
+        (see `_apply_inputs`)."""
         with self.lock:
-            self.inputs.update(values)
+            self._pending_inputs.append(values)
+
+    def _apply_inputs(self) -> None:
+        """Apply the packets received since the last cycle, but at most one change of the
+        command register per cycle: every command a client sends is served at least once, as
+        by a controller that keeps its 2 ms cycle. An emulator running late on a loaded
+        machine would otherwise apply two packets in one cycle and lose the first command
+        (ur_rtde's forceMode, overwritten by the servoL sent two periods later)."""
+        command = f"input_int_register_{self.register_offset}"
+        changed = False
+        while self._pending_inputs:
+            values = self._pending_inputs[0]
+            if command in values and values[command] != self.inputs.get(command, 0):
+                if changed:
+                    return
+                changed = True
+            self.inputs.update(self._pending_inputs.popleft())
 
     def start_program(self, script: str) -> None:
         """A URScript program arrived on the script port."""
@@ -208,6 +230,7 @@ class Controller:
     def cycle(self) -> None:
         """One control period: serve the register protocol, drive and step the arm, publish."""
         with self.lock:
+            self._apply_inputs()
             if self.program_running:
                 self._serve_command()
             self._drive()
@@ -274,6 +297,13 @@ class Controller:
 
     def _execute(self, command: int) -> bool:
         """Run one command; True when the client must wait for its motion to end."""
+        if command in cmd.MOTION and self.motion_started_at is None:
+            self.motion_started_at = self.arm.time()
+            log.info(
+                "first motion command (%s) at t=%.3f s",
+                cmd.command_name(command),
+                self.motion_started_at,
+            )
         if command in (cmd.MOVEJ, cmd.MOVEL):
             speed, acceleration = self._doubles(6, 2)
             if command == cmd.MOVEJ:
@@ -291,10 +321,11 @@ class Controller:
         if command in (cmd.SERVOJ, cmd.SERVOL):
             space = JOINT if command == cmd.SERVOJ else LINEAR
             target = self._doubles(0, 6) if space == JOINT else pose_from_ur(self._doubles(0, 6))
-            if isinstance(self.motion, ServoTarget) and self.motion.space == space:
-                self.motion.target = target
-            else:
-                self.motion = ServoTarget(space, target)
+            servo_time, lookahead = self._doubles(8, 2)
+            if not (isinstance(self.motion, ServoTarget) and self.motion.space == space):
+                start = self.arm.joint_positions() if space == JOINT else self.arm.tcp_pose()
+                self.motion = ServoTarget(space, start)
+            self.motion.command(target, servo_time, lookahead)
             return False
         if command in (cmd.SPEEDJ, cmd.SPEEDL):
             self._ramp_to(

@@ -3,8 +3,9 @@
 ur_rtde's RTDE and script clients connect to fixed ports (30004, 30003), so parallel
 emulators cannot be told apart by port. They are told apart by address instead: each one
 binds its own loopback address 127.0.0.N (all of 127/8 reaches this host on Linux), found
-free by binding. Injected faults are logged with the `time.monotonic()` at which they struck
-(one clock for every process on Linux), which `fault_time()` reads back for latency checks.
+free by binding. Injected faults are logged with the emulator time and the `time.monotonic()`
+at which they struck (one clock for every process on Linux), which `fault_emulator_time()` and
+`fault_time()` read back: a motion-relative fault's time is known only once it has struck.
 """
 
 from __future__ import annotations
@@ -25,8 +26,9 @@ from pathlib import Path
 
 from sim.rtde.server import Ports
 
-START_TIMEOUT = 30.0
-"""Seconds to wait for the ready line (the MuJoCo arm compiles its scene first)."""
+START_TIMEOUT = 90.0
+"""Seconds to wait for the ready line: the MuJoCo arm builds its scene and phantom first, about
+6 s on an idle machine and several times that on two busy cores."""
 
 
 @dataclass
@@ -46,6 +48,11 @@ class RunningEmulator:
     def fault_time(self) -> float | None:
         """`time.monotonic()` at which the first injected fault struck, or None yet."""
         match = re.search(r"injected fault.*?monotonic ([0-9.]+)", self.log())
+        return None if match is None else float(match.group(1))
+
+    def fault_emulator_time(self) -> float | None:
+        """Emulator time (s, the robot clock RTDE reports) of the first injected fault."""
+        match = re.search(r"injected fault at t=([0-9.]+) s", self.log())
         return None if match is None else float(match.group(1))
 
 
@@ -70,8 +77,17 @@ def _candidate_hosts() -> list[str]:
     return hosts
 
 
+def free_host() -> str:
+    """A loopback address where nothing listens on UR's ports: a controller that is off."""
+    for host in _candidate_hosts():
+        if _address_free(host, Ports()):
+            return host
+    raise RuntimeError("no free loopback address")
+
+
 def _wait_ready(process: subprocess.Popen, deadline: float) -> bool:
     """True when the ready line arrived; False when the process ended first."""
+    assert process.stdout is not None  # started with stdout=PIPE
     while time.monotonic() < deadline:
         readable, _, _ = select.select([process.stdout], [], [], 0.1)
         if readable:

@@ -1,9 +1,11 @@
 """The MuJoCo UR3e (`sim.robot.ur3e.SimulatedUR3e`) as the emulator's arm.
 
-The emulator's controller plans the motion and streams one setpoint per period; they reach
-the simulated robot as servo commands that arrive within the period (servo time one period,
-no lookahead), so the robot's own joint-speed limits, force mode (admittance on its wrist
-force/torque sensor), contact with the phantom and protective stops all stay in the simulation.
+The emulator's controller plans the motion and streams one setpoint per period (a client's
+servo stream already smoothed by its servo and lookahead times, `sim.rtde.motion.ServoTarget`);
+they reach the simulated robot as servo commands that arrive within the period (servo time one
+period, no lookahead), so the robot's own joint-speed limits, force mode (admittance on its
+wrist force/torque sensor), contact with the phantom and protective stops all stay in the
+simulation.
 """
 
 from __future__ import annotations

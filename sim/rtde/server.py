@@ -354,12 +354,13 @@ class Emulator:
         while not self._stopping.is_set():
             self.controller.cycle()
             now = self.controller.arm.time()
-            if now >= self.faults.protective_stop_at and not protective_stop_done:
+            started = self.controller.motion_started_at
+            if now >= self.faults.protective_stop_time(started) and not protective_stop_done:
                 protective_stop_done = True
                 self.controller.protective_stop(
-                    f"injected fault (monotonic {time.monotonic():.6f})"
+                    f"injected fault at t={now:.3f} s (monotonic {time.monotonic():.6f})"
                 )
-            self._apply_drop(now)
+            self._apply_drop(now, started)
             for session in list(self._sessions):
                 session.publish(tick, self.controller)
             tick += 1
@@ -373,12 +374,12 @@ class Emulator:
                 )
                 next_time = time.perf_counter()
 
-    def _apply_drop(self, now: float) -> None:
-        refusing = self.faults.refusing(now)
+    def _apply_drop(self, now: float, motion_started: float | None) -> None:
+        refusing = self.faults.refusing(now, motion_started)
         if refusing and not self._dropped:
             self._dropped = True
-            log.warning(
-                "dropping every connection at t=%.3f s (injected fault, monotonic %.6f)",
+            log.warning(  # before closing: a client that sees the drop finds it in the log
+                "dropping every connection: injected fault at t=%.3f s (monotonic %.6f)",
                 now,
                 time.monotonic(),
             )

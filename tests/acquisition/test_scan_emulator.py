@@ -22,6 +22,10 @@ pytestmark = [pytest.mark.slow, pytest.mark.hang_guard]
 
 
 PROBE = LinearProbe(cols=96, rows=96)
+TCP_ACCELERATION = 1.0
+"""Bound on the TCP's acceleration during the sweep (m/s^2): the plan ramps at 0.05 m/s^2,
+and the servo's smoothing of a stream that arrives late and force control of the contact
+add a few tenths (measured between consecutive packets: at most 0.35 m/s^2)."""
 
 
 def label_mismatch(sweep) -> np.ndarray:
@@ -67,14 +71,21 @@ def test_scan_records_the_controllers_poses_the_phantoms_labels_and_the_force(tm
     sweep = read_sweep(out)
     assert len(sweep) >= 6 and sweep.source == "sim"
 
-    # Poses: the Sweep's pose of each frame is the controller's actual TCP pose at the frame's
-    # time, as the independent client saw it (interpolated between its 2 ms samples).
+    # Poses: each frame is stamped with the robot time of the state packet the scanner read in
+    # its cycle, and the Sweep's pose for it is that packet's actual TCP pose. The watcher, an
+    # independent client, sees the same packets: where it read the frame's packet too, the two
+    # agree exactly; where it missed it (it polls, late on a loaded machine), its interpolation
+    # between the packets around the frame is off by at most the path's bend over its gap.
     inside = (sweep.timestamps > watched.times[0]) & (sweep.timestamps < watched.times[-1])
     assert inside.all()
     position_error = np.linalg.norm(
         positions_at(watched, sweep.timestamps) - sweep.probe_to_base[:, :3, 3], axis=1
     )
-    assert position_error.max() < 20e-6, f"{position_error.max() * 1e6:.1f} um"
+    seen = np.isin(sweep.timestamps, watched.times)
+    assert position_error[seen].max(initial=0.0) < 1e-9, position_error[seen]
+    gap = np.diff(watched.times)[np.searchsorted(watched.times, sweep.timestamps) - 1]
+    bend = TCP_ACCELERATION * gap**2 / 8
+    assert (position_error <= bend + 1e-9).all(), f"{position_error * 1e6} um over {gap} s"
     nearest = np.searchsorted(watched.times, sweep.timestamps).clip(0, len(watched.times) - 1)
     relative = Rotation.from_matrix(
         np.einsum("nji,njk->nik", watched.poses[nearest, :3, :3], sweep.probe_to_base[:, :3, :3])
