@@ -1,4 +1,5 @@
-"""Options that several commands share, declared once: the scene and its phantom subject."""
+"""Options that several commands share, declared once: the scene and its phantom subject, and
+the OpenIGTLink stream of a scan."""
 
 from __future__ import annotations
 
@@ -9,3 +10,10 @@ import typer
 SceneOption = Annotated[str, typer.Option(help="Scene name (assets/scenes) or YAML path.")]
 PhantomOption = Annotated[str | None, typer.Option(help="Phantom spec name or YAML path.")]
 SubjectOption = Annotated[int | None, typer.Option(help="Subject variant of the phantom.")]
+IgtlPortOption = Annotated[
+    int | None,
+    typer.Option(
+        "--igtl", metavar="PORT", help="Stream every frame over OpenIGTLink on this port."
+    ),
+]
+IgtlHostOption = Annotated[str, typer.Option(help="Address the OpenIGTLink stream listens on.")]

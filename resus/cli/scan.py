@@ -24,7 +24,13 @@ from typing import TYPE_CHECKING, Annotated
 import numpy as np
 import typer
 
-from resus.cli.options import PhantomOption, SceneOption, SubjectOption
+from resus.cli.options import (
+    IgtlHostOption,
+    IgtlPortOption,
+    PhantomOption,
+    SceneOption,
+    SubjectOption,
+)
 from resus.cli.parsers import flag_error, parse_numbers, settings_from_flags
 from resus.errors import ResusError
 
@@ -204,15 +210,8 @@ def scan(
     ] = 1e-3,
     grpc_port: Annotated[int, typer.Option(help="gRPC port of the live viewer.")] = 9876,
     web_port: Annotated[int, typer.Option(help="HTTP port of the served web viewer.")] = 9090,
-    igtl: Annotated[
-        int | None,
-        typer.Option(
-            "--igtl", metavar="PORT", help="Stream every frame over OpenIGTLink on this port."
-        ),
-    ] = None,
-    igtl_host: Annotated[
-        str, typer.Option(help="Address the OpenIGTLink stream listens on.")
-    ] = "127.0.0.1",
+    igtl: IgtlPortOption = None,
+    igtl_host: IgtlHostOption = "127.0.0.1",
 ) -> None:
     """Scan along a planned trajectory and record a Sweep, watching it live in rerun."""
     from resus.acquisition.factory import SimulatedProbeConfig, make_probe, make_robot

@@ -7,7 +7,13 @@ from typing import Annotated
 
 import typer
 
-from resus.cli.options import PhantomOption, SceneOption, SubjectOption
+from resus.cli.options import (
+    IgtlHostOption,
+    IgtlPortOption,
+    PhantomOption,
+    SceneOption,
+    SubjectOption,
+)
 from resus.cli.parsers import parse_index_set, parse_numbers
 from resus.errors import ResusError
 
@@ -57,15 +63,8 @@ def simulate(
     seed: Annotated[int | None, typer.Option(help="Phantom seed (anatomy and speckle).")] = None,
     preview: Annotated[Path | None, typer.Option(help="Also save a contact sheet PNG.")] = None,
     jobs: Annotated[int, typer.Option(min=1, help="Worker processes for --subjects.")] = 2,
-    igtl: Annotated[
-        int | None,
-        typer.Option(
-            "--igtl", metavar="PORT", help="Stream every frame over OpenIGTLink on this port."
-        ),
-    ] = None,
-    igtl_host: Annotated[
-        str, typer.Option(help="Address the OpenIGTLink stream listens on.")
-    ] = "127.0.0.1",
+    igtl: IgtlPortOption = None,
+    igtl_host: IgtlHostOption = "127.0.0.1",
 ) -> None:
     """Scan a simulated phantom with the simulated UR3e and write Sweeps with labels."""
     from resus.acquisition.patterns import LinearPattern
