@@ -173,9 +173,7 @@ def _grey(image: np.ndarray, colour_order: str) -> np.ndarray:
     channels = 1 if image.ndim == 2 else image.shape[2] if image.ndim == 3 else 0
     if image.dtype != np.uint8 or channels not in (1, 3, 4):
         raise ResusError(f"{image.dtype} image of shape {image.shape} is neither grey nor colour")
-    if colour_order == "rgb" and channels > 1:
-        image = image[..., [2, 1, 0, 3][:channels]]  # RGB(A) -> BGR(A)
-    return np.ascontiguousarray(to_grey(np.ascontiguousarray(image)))
+    return np.ascontiguousarray(to_grey(np.ascontiguousarray(image), colour_order))
 
 
 def image_message_to_grey(message: Any, msgtype: str) -> np.ndarray:

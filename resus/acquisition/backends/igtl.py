@@ -114,9 +114,7 @@ def grey_frame(image: np.ndarray) -> np.ndarray:
     channels = 1 if image.ndim == 2 else image.shape[2]
     if channels not in (1, 3, 4):
         raise ResusError(f"IMAGE has {channels} components per pixel; expected grey or RGB")
-    if channels > 1:  # OpenIGTLink colour is RGB(A); the video probe's to_grey takes BGR(A)
-        image = image[..., [2, 1, 0, 3][:channels]]
-    return np.ascontiguousarray(to_grey(np.ascontiguousarray(image)))
+    return np.ascontiguousarray(to_grey(np.ascontiguousarray(image), "rgb"))  # IGTL is RGB(A)
 
 
 class IgtlProbe(Probe):

@@ -53,8 +53,9 @@ class VideoProbeConfig:
             )
 
 
-def to_grey(image: np.ndarray) -> np.ndarray:
-    """An 8-bit grey image from a grabbed BGR, BGRA or grey frame."""
+def to_grey(image: np.ndarray, colour_order: str = "bgr") -> np.ndarray:
+    """An 8-bit grey image from a grey, BGR(A) or (with `colour_order="rgb"`) RGB(A) frame:
+    OpenCV grabs BGR, OpenIGTLink and ROS images are usually RGB."""
     import cv2
 
     if image.dtype != np.uint8:
@@ -64,7 +65,13 @@ def to_grey(image: np.ndarray) -> np.ndarray:
     if image.ndim == 3 and image.shape[2] == 1:
         return image[:, :, 0]
     if image.ndim == 3 and image.shape[2] in (3, 4):
-        code = cv2.COLOR_BGR2GRAY if image.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
+        codes = {
+            ("bgr", 3): cv2.COLOR_BGR2GRAY,
+            ("bgr", 4): cv2.COLOR_BGRA2GRAY,
+            ("rgb", 3): cv2.COLOR_RGB2GRAY,
+            ("rgb", 4): cv2.COLOR_RGBA2GRAY,
+        }
+        code = codes[colour_order, image.shape[2]]
         return cv2.cvtColor(image, code)
     raise ResusError(f"the video delivers frames of shape {image.shape}; expected an image")
 
