@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import logging
+import os
+import signal
 import time
 from dataclasses import dataclass
 
@@ -130,9 +133,29 @@ def test_dropped_connection_becomes_robot_fault_and_reconnect_recovers():
         delay = seen.at - emulator.fault_time()
         assert 0.0 <= delay < DETECTION_LIMIT, f"dropped link seen after {delay:.3f} s"
         assert robot.fault() == "connection to the UR controller lost"
-        robot.reconnect()  # after LINK_SETTLE, when connections are accepted again
+        time.sleep(max(0.0, emulator.fault_time() + DROP_FOR + 0.1 - time.monotonic()))
+        robot.reconnect()  # a new link process, now that connections are accepted again
         assert robot.fault() is None
         assert robot.time() > emulator.fault_emulator_time() + DROP_FOR
+
+
+def test_ur_rtde_crashing_is_a_lost_link_and_the_caller_lives_on(caplog):
+    """ur_rtde 1.6.5 can crash in its own reconnection (SIGSEGV); its process really
+    crashing must reach the caller as a RobotFault, like any lost link."""
+    caplog.set_level(logging.DEBUG, logger="resus.acquisition.backends.rtde_link")
+    with launch() as emulator, RTDERobot(RTDERobotConfig(emulator.host)) as robot:
+        robot.servo_linear(robot.tcp_pose())
+        robot.wait_period()
+        link = robot.link
+        assert link is not None
+        os.kill(link.pid, signal.SIGSEGV)
+        seen = _wait_for_fault(robot)
+        assert seen.reason == "connection to the UR controller lost"
+        assert robot.fault() == "connection to the UR controller lost"
+        began = time.monotonic()
+    assert time.monotonic() - began < 2.0  # closing kills nothing twice and waits for nothing
+    assert "ur_rtde's process ended by SIGSEGV" in caplog.text
+    assert "Fatal Python error: Segmentation fault" in caplog.text  # its log, at DEBUG
 
 
 def test_a_controller_that_is_off_is_one_line_on_the_console(tmp_path):
