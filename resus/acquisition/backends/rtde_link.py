@@ -138,7 +138,7 @@ class RTDELink:
         try:
             self._connection.send((operation, arguments))
         except OSError:
-            self._lose("the pipe to it broke")
+            self._lose(self._ending())
             raise RobotFault(LINK_LOST) from None
         self._pending = True
         return self._reply()
