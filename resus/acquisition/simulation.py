@@ -21,6 +21,7 @@ from resus.sweep.model import FrameSink
 from sim.phantom import Phantom, PhantomSpec
 from sim.robot.scene import load_scene_phantom
 from sim.robot.scene_config import SceneConfig, load_scene_config, scene_path
+from sim.ultrasound.scanner import ScannerPreset
 
 SUBJECT_ID = re.compile(r"^(?P<phantom>[^/]+)/(?P<subject>nominal|\d+)$")
 
@@ -47,17 +48,25 @@ def simulate_sweep(
     *,
     seed: int | None = None,
     probe: SimulatedProbeConfig | None = None,
+    preset: ScannerPreset | None = None,
     progress: bool = True,
     listeners: Sequence[FrameSink] = (),
 ) -> ScanResult:
     """Scan the scene's phantom with the simulated UR3e along `trajectory` (or a pattern made
     over the phantom) and write a labelled Sweep to `out`; `listeners` (the scanner's) get
-    every frame as it is recorded, e.g. an OpenIGTLink server streaming the scan live."""
+    every frame as it is recorded, e.g. an OpenIGTLink server streaming the scan live.
+    `preset` images with that scanner preset's probe and settings (not with `probe`)."""
+    if probe is not None and preset is not None:
+        raise ValueError("simulate_sweep takes a probe config or a scanner preset, not both")
     phantom = Phantom(phantom_spec(scene, seed))
     if isinstance(trajectory, SweepPattern):
         trajectory = trajectory.trajectory(phantom, scene.phantom_to_base)
     robot = SimulatedRobot(scene)
     probe_config = probe or SimulatedProbeConfig(frame_rate=trajectory.frame_rate)
+    if preset is not None:
+        probe_config = dataclasses.replace(
+            probe_config, probe=preset.probe(), settings=preset.settings()
+        )
     probe_source = SimulatedProbe(robot, probe_config, phantom)
     scanner = Scanner(
         robot, probe_source, settings=ScannerSettings(progress=progress), listeners=listeners

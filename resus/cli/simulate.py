@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -14,8 +14,11 @@ from resus.cli.options import (
     SceneOption,
     SubjectOption,
 )
-from resus.cli.parsers import parse_index_set, parse_numbers
+from resus.cli.parsers import flag_error, parse_index_set, parse_numbers
 from resus.errors import ResusError
+
+if TYPE_CHECKING:
+    from sim.ultrasound.scanner import ScannerPreset
 
 
 def _simulate_one(job: dict) -> tuple[str, int]:
@@ -24,6 +27,7 @@ def _simulate_one(job: dict) -> tuple[str, int]:
     from resus.acquisition.trajectory import Trajectory
 
     scene = resolve_scene(job["scene"], job["phantom"], job["subject"])
+    preset = sweep_scanner(job.get("scanner"), job["seed"], job["subject"])
     trajectory = job["trajectory"]
     if isinstance(trajectory, str):
         trajectory = Trajectory.from_yaml(trajectory)
@@ -32,10 +36,25 @@ def _simulate_one(job: dict) -> tuple[str, int]:
         scene,
         trajectory,
         seed=job["seed"],
+        preset=preset,
         progress=job["progress"],
         listeners=job.get("listeners", ()),
     )
     return str(result.path), result.frames
+
+
+def sweep_scanner(name: str | None, seed: int | None, subject: int | None) -> ScannerPreset | None:
+    """The `--scanner` preset of one sweep: None for the simulator's own settings, a named
+    preset, `random-N`, or `random`: one drawn per sweep from the seed and the subject."""
+    from sim.ultrasound.scanner import random_preset, scanner_preset
+    from sim.ultrasound.scatterers import mix_seed
+
+    if name is None:
+        return None
+    if name == "random":
+        return random_preset(int(mix_seed(seed or 0, -1 if subject is None else subject)))
+    with flag_error("--scanner"):
+        return scanner_preset(name)
 
 
 def simulate(
@@ -61,6 +80,13 @@ def simulate(
     ] = 4.0,
     tilt: Annotated[float, typer.Option(help="Linear: tilt about the array axis (deg).")] = 0.0,
     seed: Annotated[int | None, typer.Option(help="Phantom seed (anatomy and speckle).")] = None,
+    scanner: Annotated[
+        str | None,
+        typer.Option(
+            help="Scanner preset: vascular, vascular-deep, nerve, classic, random-N, or random "
+            "(one per sweep); default: the simulator's own settings."
+        ),
+    ] = None,
     preview: Annotated[Path | None, typer.Option(help="Also save a contact sheet PNG.")] = None,
     jobs: Annotated[int, typer.Option(min=1, help="Worker processes for --subjects.")] = 2,
     igtl: IgtlPortOption = None,
@@ -85,7 +111,14 @@ def simulate(
         plan = trajectory
     else:
         raise ResusError("--trajectory: neither 'linear' nor an existing file", trajectory)
-    base = {"scene": scene, "phantom": phantom, "trajectory": plan, "seed": seed}
+    sweep_scanner(scanner, seed, subject)  # a bad name fails here, before any work
+    base = {
+        "scene": scene,
+        "phantom": phantom,
+        "trajectory": plan,
+        "seed": seed,
+        "scanner": scanner,
+    }
     if igtl is not None and subjects is not None:
         raise ResusError("--igtl streams one sweep: not with --subjects")
     if subjects is None:

@@ -4,14 +4,17 @@
   tissue properties per pixel (vessel walls overriding the sampled material inside the wall
   band), round-trip attenuation accumulated down the line, transmission loss and a specular
   echo at every impedance step (vessel-wall echoes weighted by the incidence angle), air after
-  tissue stopping the line; the reflectivity (echogenicity times the phantom-fixed scatterer
-  field summed over the elevational slice, plus specular echoes) is then convolved with the
-  axial pulse. Output: the analytic (IQ) echo signal before time-gain compensation.
+  tissue stopping the line, optional side-lobe clutter (`lateral_clutter`, computed before:
+  a share of the scatter power of the tissue beside each pixel); the reflectivity
+  (echogenicity times the phantom-fixed scatterer field summed over the elevational slice,
+  plus specular echoes) is then convolved with the axial pulse. Output: the analytic (IQ)
+  echo signal before time-gain compensation.
 
 `form_image` (one thread per column again): the lateral beam, one Gaussian kernel per row;
 electronic noise (a hash of the pixel and a frame key, so a given pose always gives the same
-image); time-gain compensation; envelope; log compression to grey levels; black where the
-column has no skin contact or the pixel lies in air, with the label image masked alike.
+image); time-gain compensation; envelope; log compression to grey levels; the grey map;
+black where the column has no skin contact or the pixel lies in air, with the label image
+masked alike.
 
 Arrays indexed `[col, row]` are column-major scan lines: `material[col * rows + row]` is the
 sample of pixel (col, row).
@@ -74,6 +77,31 @@ def grid_points(
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
+def lateral_clutter(
+    material: np.ndarray,
+    echogenicity: np.ndarray,
+    rows: int,
+    power: float,
+    half_cols: int,
+    out: np.ndarray,
+) -> None:
+    """Side-lobe clutter per pixel, `out[col * rows + row]` = `power` times the mean squared
+    echogenicity of the pixels in the same row within `half_cols` columns (air counts as 0):
+    the side lobes pick up the tissue beside a lumen at the lumen's own depth."""
+    cols = out.shape[0] // rows
+    for row in numba.prange(rows):
+        cumulative = np.zeros(cols + 1, dtype=np.float64)
+        for col in range(cols):
+            m = material[col * rows + row]
+            value = echogenicity[m] if m >= 0 else np.float32(0.0)
+            cumulative[col + 1] = cumulative[col] + value * value
+        for col in range(cols):
+            low = max(0, col - half_cols)
+            high = min(cols, col + half_cols + 1)
+            out[col * rows + row] = power * (cumulative[high] - cumulative[low]) / (high - low)
+
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
 def scan_lines(
     origin: np.ndarray,
     col_step: np.ndarray,
@@ -95,6 +123,8 @@ def scan_lines(
     seed: np.uint32,
     specular_gain: float,
     specular_exponent: float,
+    has_clutter: bool,
+    clutter: np.ndarray,
     out_real: np.ndarray,
     out_imag: np.ndarray,
 ) -> None:
@@ -104,6 +134,7 @@ def scan_lines(
     the next column and row; the beam runs along `row_step`. Material tables (`echogenicity`,
     `round_trip_step` = amplitude factor of attenuation over one row there and back,
     `impedance`) have the vessel-wall material appended after the phantom's materials.
+    `clutter` (pixels, column-major): scatter power added before attenuation, when `has_clutter`.
     """
     cols, rows = out_real.shape
     wall = echogenicity.shape[0] - 1
@@ -147,7 +178,10 @@ def scan_lines(
                     specular[row] = specular_gain * r * incidence * gain
                     gain *= np.float32(1.0) - r * r
                 gain *= round_trip_step[m]
-                amplitude[row] = echogenicity[m] * gain
+                scatter = echogenicity[m]
+                if has_clutter:
+                    scatter = np.float32(math.sqrt(scatter * scatter + clutter[n]))
+                amplitude[row] = scatter * gain
                 previous = m
             for e in range(elevation_offsets.shape[0]):
                 offset = elevation_offsets[e]
@@ -185,6 +219,7 @@ def form_image(
     frame_key: np.uint32,
     grey_per_log2: float,
     grey_offset: float,
+    grey_map: np.ndarray,
     material: np.ndarray,
     label: np.ndarray,
     contact: np.ndarray,
@@ -195,7 +230,8 @@ def form_image(
     from the IQ scan lines.
 
     `lateral` (taps, rows): the per-row lateral beam; `tgc` (rows,): time-gain compensation
-    (amplitude factors). Grey level = `grey_per_log2 * log2(envelope^2) + grey_offset`, clipped.
+    (amplitude factors). Grey level = `grey_per_log2 * log2(envelope^2) + grey_offset`, clipped,
+    then looked up in `grey_map` (256 uint8 entries).
     """
     cols, rows = echo_real.shape
     grey_scale = np.float32(grey_per_log2)
@@ -228,7 +264,7 @@ def form_image(
             grey = grey_scale * log_power[row] + grey_base
             grey = min(max(grey, np.float32(0.0)), np.float32(255.0))
             visible = material[first + row] >= 0
-            image[col, row] = np.uint8(grey + np.float32(0.5)) if visible else 0
+            image[col, row] = grey_map[np.uint8(grey + np.float32(0.5))] if visible else 0
             label_image[col, row] = label[first + row] if visible else 0
 
 

@@ -51,6 +51,20 @@ class UltrasoundSettings:
     `255 * gain_db / dynamic_range_db`."""
     dynamic_range_db: float = 50.0
     """Range of echo levels (dB) mapped onto grey levels 0..255 by the log compression."""
+    tgc_sliders_db: tuple[float, ...] = ()
+    """Offsets (dB) of the console's TGC sliders, evenly spaced from the face to the deepest
+    row and interpolated linearly between them (a real console has six to eight), on top of
+    the compensation `tgc_attenuation` implies. Empty: no offsets."""
+    clutter_db: float | None = None
+    """Side-lobe clutter: scatter power (dB) relative to the mean scatter power of the tissue
+    within `clutter_width` at the same depth, added with the tissue's own speckle grain (it is
+    that tissue seen through the side lobes). It fills lumens with faint echoes and barely
+    changes tissue; None: no clutter."""
+    clutter_width: float = 10.0e-3
+    """Lateral width (m) of the tissue the side lobes see: about the active aperture."""
+    grey_gamma: float = 1.0
+    """Grey map: a log-compressed level g shows as `255 * (g / 255) ** grey_gamma`; above 1
+    darkens the mid-greys, as vascular presets do, and keeps black and white."""
     contact_tolerance: float = 0.5e-3
     """Largest gap (m) between a transducer element and the skin that gel still couples;
     columns whose element is further above the skin stay black."""
@@ -65,6 +79,8 @@ class UltrasoundSettings:
             "scatterer_spacing",
             "specular_angle",
             "dynamic_range_db",
+            "clutter_width",
+            "grey_gamma",
         )
         for name in positive:
             if not getattr(self, name) > 0:
@@ -87,3 +103,5 @@ class UltrasoundSettings:
             raise ValueError(
                 f"ultrasound setting specular_angle must be below pi/2, got {self.specular_angle}"
             )
+        if len(self.tgc_sliders_db) == 1:
+            raise ValueError("ultrasound setting tgc_sliders_db needs at least two sliders, got 1")

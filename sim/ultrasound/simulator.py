@@ -21,7 +21,13 @@ import numpy as np
 from sim.phantom import Phantom, TissueSample
 from sim.transforms import is_rigid
 from sim.ultrasound.beam import axial_pulse, elevation_profile, lateral_beam
-from sim.ultrasound.echo import form_image, grid_points, scan_lines, transpose_pair
+from sim.ultrasound.echo import (
+    form_image,
+    grid_points,
+    lateral_clutter,
+    scan_lines,
+    transpose_pair,
+)
 from sim.ultrasound.probe import LinearProbe
 from sim.ultrasound.scatterers import FIELD_COMPONENT_VARIANCE, mix_seed
 from sim.ultrasound.settings import UltrasoundSettings
@@ -85,15 +91,26 @@ class UltrasoundSimulator:
         tgc_attenuation = settings.tgc_attenuation
         if tgc_attenuation is None:
             tgc_attenuation = spec.layers[-1].attenuation_db_cm_mhz
-        self._tgc = db_to_amplitude(2.0 * tgc_attenuation * frequency_mhz * depth_cm).astype(
-            np.float32
-        )
+        tgc_db = 2.0 * tgc_attenuation * frequency_mhz * depth_cm
+        if settings.tgc_sliders_db:
+            sliders = np.asarray(settings.tgc_sliders_db, dtype=np.float64)
+            tgc_db = tgc_db + np.interp(
+                depth_cm, np.linspace(depth_cm[0], depth_cm[-1], len(sliders)), sliders
+            )
+        self._tgc = db_to_amplitude(tgc_db).astype(np.float32)
         self._seed = mix_seed(spec.seed, -1 if spec.subject is None else spec.subject)
         noise_rms = spec.noise_level * db_to_amplitude(settings.electronic_noise_db) / self._tgc[-1]
         self._noise_amplitude = noise_rms / (NOISE_COMPONENT_RMS * math.sqrt(2.0))
         self._specular_exponent = math.log(0.5) / math.log(math.cos(settings.specular_angle))
         self._grey_per_log2 = 255.0 / settings.dynamic_range_db * 10.0 * math.log10(2.0)
         self._grey_offset = 255.0 * settings.gain_db / settings.dynamic_range_db
+        levels = np.arange(256) / 255.0
+        self._grey_map = np.round(255.0 * levels**settings.grey_gamma).astype(np.uint8)
+        self._clutter_power = (
+            0.0 if settings.clutter_db is None else float(10.0 ** (settings.clutter_db / 10.0))
+        )
+        self._clutter_half_cols = max(1, round(settings.clutter_width / probe.pixel_width / 2))
+        self._clutter = np.zeros(probe.cols * probe.rows, dtype=np.float32)
         self._element_x = (np.arange(probe.cols) - (probe.cols - 1) / 2) * probe.pixel_width
         count = probe.cols * probe.rows
         self._points = np.empty((count, 3))
@@ -129,6 +146,15 @@ class UltrasoundSimulator:
         grid_points(origin, col_step, row_step, probe.rows, self._points)
         sample = self.phantom.sample(self._points, out=self._sample)
         contact = self.contact(pose)
+        if self._clutter_power > 0.0:
+            lateral_clutter(
+                sample.material,
+                self._echogenicity,
+                probe.rows,
+                self._clutter_power,
+                self._clutter_half_cols,
+                self._clutter,
+            )
         scan_lines(
             origin,
             col_step,
@@ -150,6 +176,8 @@ class UltrasoundSimulator:
             self._seed,
             self.settings.specular_gain,
             self._specular_exponent,
+            self._clutter_power > 0.0,
+            self._clutter,
             self._echo_real,
             self._echo_imag,
         )
@@ -165,6 +193,7 @@ class UltrasoundSimulator:
             frame_key,
             self._grey_per_log2,
             self._grey_offset,
+            self._grey_map,
             sample.material,
             sample.label,
             contact,

@@ -172,6 +172,8 @@ def render_layers(attenuation: np.ndarray, impedance: np.ndarray | None = None) 
         mix_seed(9),
         SETTINGS.specular_gain,
         1.0,
+        False,  # no clutter
+        np.zeros(count, np.float32),
         echo_real,
         echo_imag,
     )
@@ -190,6 +192,7 @@ def render_layers(attenuation: np.ndarray, impedance: np.ndarray | None = None) 
         np.uint32(0),
         grey_per_log2,
         grey_offset,
+        np.arange(256).astype(np.uint8),  # identity grey map
         np.zeros(count, np.int8),
         np.zeros(count, np.uint8),
         contact,

@@ -1,0 +1,184 @@
+"""Scanner presets: what makes two machines' images of the same tissue look different.
+
+A `ScannerPreset` names the knobs a sonographer or a vendor sets (centre frequency, depth,
+focus, gain, TGC sliders, dynamic range, grey map, clutter, noise) and turns them into the
+simulator's `LinearProbe` and `UltrasoundSettings`. Frequency carries its physics with it:
+the pulse shortens (axial resolution ~ c / bandwidth), the beam narrows (lateral FWHM ~
+lambda times the F-number), so speckle grows finer, and attenuation in dB grows with it.
+
+`random_preset(seed)` draws every knob from the ranges clinical linear-array presets span, so
+a training set simulated under many presets does not teach a network one machine's look.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.ultrasound.probe import LinearProbe
+from sim.ultrasound.settings import UltrasoundSettings
+
+LATERAL_FWHM_PER_WAVELENGTH_F_NUMBER = 1.02
+"""Lateral -6 dB beam width at the focus of a rectangular aperture, in wavelengths times the
+F-number (focal depth / aperture width)."""
+TGC_SLIDERS = 8
+"""Sliders on a console's TGC panel."""
+
+
+@dataclass(frozen=True)
+class ScannerPreset:
+    """One scanner and imaging preset. Units SI; dB where named."""
+
+    name: str = "vascular"
+    centre_frequency: float = 10.0e6
+    """Transmit centre frequency (Hz): 5-14 MHz for linear arrays."""
+    depth: float = 0.040
+    """Displayed depth (m): 3-8 cm; the pixel spacing follows from it and the image size."""
+    focal_depth: float = 0.020
+    """Transmit focus (m)."""
+    f_number: float = 2.0
+    """Focal depth over active aperture; with the wavelength it sets the lateral beam width."""
+    fractional_bandwidth: float = 0.7
+    gain_db: float = 24.0
+    dynamic_range_db: float = 60.0
+    tgc_sliders_db: tuple[float, ...] = ()
+    grey_gamma: float = 1.3
+    clutter_db: float | None = -10.0
+    electronic_noise_db: float = -12.0
+
+    def __post_init__(self) -> None:
+        if not 2.0e6 <= self.centre_frequency <= 20.0e6:
+            raise ValueError(
+                f"scanner preset {self.name!r}: centre_frequency must be 2-20 MHz, "
+                f"got {self.centre_frequency / 1e6:g} MHz"
+            )
+        if not 0 < self.focal_depth <= self.depth:
+            raise ValueError(
+                f"scanner preset {self.name!r}: focal_depth must be in (0, depth], "
+                f"got {self.focal_depth} for depth {self.depth}"
+            )
+        if not self.f_number > 0:
+            raise ValueError(f"scanner preset {self.name!r}: f_number must be positive")
+
+    @property
+    def wavelength(self) -> float:
+        """Wavelength at the centre frequency in soft tissue (m)."""
+        return UltrasoundSettings.speed_of_sound / self.centre_frequency
+
+    @property
+    def lateral_resolution(self) -> float:
+        """Lateral FWHM at the focus (m)."""
+        return LATERAL_FWHM_PER_WAVELENGTH_F_NUMBER * self.wavelength * self.f_number
+
+    def probe(self, base: LinearProbe | None = None) -> LinearProbe:
+        """`base` (its array width and image size) imaging at this preset's frequency and depth."""
+        return dataclasses.replace(
+            base or LinearProbe(), centre_frequency=self.centre_frequency, depth=self.depth
+        )
+
+    def settings(self, base: UltrasoundSettings | None = None) -> UltrasoundSettings:
+        """`base` with this preset's beam, display and noise knobs."""
+        return dataclasses.replace(
+            base or UltrasoundSettings(),
+            fractional_bandwidth=self.fractional_bandwidth,
+            lateral_resolution=self.lateral_resolution,
+            focal_depth=self.focal_depth,
+            gain_db=self.gain_db,
+            dynamic_range_db=self.dynamic_range_db,
+            tgc_sliders_db=self.tgc_sliders_db,
+            grey_gamma=self.grey_gamma,
+            clutter_db=self.clutter_db,
+            electronic_noise_db=self.electronic_noise_db,
+        )
+
+
+PRESETS: dict[str, ScannerPreset] = {
+    preset.name: preset
+    for preset in (
+        ScannerPreset(),
+        ScannerPreset(
+            name="vascular-deep",
+            centre_frequency=7.0e6,
+            depth=0.060,
+            focal_depth=0.030,
+            gain_db=28.0,
+            dynamic_range_db=66.0,
+            grey_gamma=1.3,
+        ),
+        ScannerPreset(
+            name="nerve",
+            centre_frequency=13.0e6,
+            depth=0.030,
+            focal_depth=0.015,
+            gain_db=24.0,
+            dynamic_range_db=54.0,
+            grey_gamma=1.6,
+            clutter_db=-12.0,
+        ),
+        ScannerPreset(
+            name="classic",
+            centre_frequency=7.5e6,
+            depth=0.050,
+            focal_depth=0.025,
+            f_number=2.6,
+            fractional_bandwidth=0.6,
+            gain_db=32.0,
+            dynamic_range_db=50.0,
+            grey_gamma=1.0,
+            clutter_db=None,
+        ),
+    )
+}
+"""Named presets. `vascular` (the default) is a modern vascular preset; `classic` is the
+simulator's look before presets existed (bright, high contrast, black lumens)."""
+
+RANDOM_RANGES: dict[str, tuple[float, float]] = {
+    "centre_frequency": (6.0e6, 14.0e6),
+    "depth": (0.030, 0.060),
+    "focal_fraction": (0.3, 0.7),
+    "f_number": (1.5, 3.0),
+    "fractional_bandwidth": (0.5, 0.9),
+    "gain_db": (20.0, 32.0),
+    "dynamic_range_db": (48.0, 72.0),
+    "tgc_slider_db": (-4.0, 4.0),
+    "grey_gamma": (1.0, 2.0),
+    "clutter_db": (-22.0, -8.0),
+    "electronic_noise_db": (-24.0, -10.0),
+}
+"""Uniform ranges `random_preset` draws from (focus as a fraction of the depth; each TGC
+slider independently)."""
+
+
+def random_preset(seed: int) -> ScannerPreset:
+    """A preset with every knob drawn from `RANDOM_RANGES`, deterministic in `seed`."""
+    rng = np.random.default_rng([seed, 0x5CA7])
+    draw = {name: float(rng.uniform(low, high)) for name, (low, high) in RANDOM_RANGES.items()}
+    sliders = rng.uniform(*RANDOM_RANGES["tgc_slider_db"], TGC_SLIDERS)
+    return ScannerPreset(
+        name=f"random-{seed}",
+        centre_frequency=draw["centre_frequency"],
+        depth=draw["depth"],
+        focal_depth=draw["focal_fraction"] * draw["depth"],
+        f_number=draw["f_number"],
+        fractional_bandwidth=draw["fractional_bandwidth"],
+        gain_db=draw["gain_db"],
+        dynamic_range_db=draw["dynamic_range_db"],
+        tgc_sliders_db=tuple(float(value) for value in sliders),
+        grey_gamma=draw["grey_gamma"],
+        clutter_db=draw["clutter_db"],
+        electronic_noise_db=draw["electronic_noise_db"],
+    )
+
+
+def scanner_preset(name: str) -> ScannerPreset:
+    """A named preset, or `random-N` for `random_preset(N)`."""
+    if name in PRESETS:
+        return PRESETS[name]
+    prefix, _, number = name.partition("-")
+    if prefix == "random" and number.isdigit():
+        return random_preset(int(number))
+    raise ValueError(
+        f"unknown scanner preset {name!r}; choose one of {', '.join(PRESETS)} or random-N"
+    )

@@ -1,0 +1,44 @@
+"""`resus simulate --scanner`: the preset's geometry and look reach the Sweep file."""
+
+from __future__ import annotations
+
+import numpy as np
+from cli_runner import run_main
+
+from resus.sweep.io import read_sweep
+from sim.ultrasound.scanner import PRESETS
+
+SHORT = ("--length", "0.006", "--speed", "0.02", "--frame-rate", "10", "--force", "0")
+
+
+def test_a_preset_sets_the_recorded_pixel_spacing_and_darkens_the_frames(
+    monkeypatch, capsys, tmp_path
+) -> None:
+    plain, nerve = tmp_path / "plain.h5", tmp_path / "nerve.h5"
+    assert run_main(monkeypatch, capsys, "simulate", "--out", str(plain), *SHORT)[0] == 0
+    status = run_main(
+        monkeypatch, capsys, "simulate", "--out", str(nerve), "--scanner", "nerve", *SHORT
+    )[0]
+    assert status == 0
+    plain_sweep, nerve_sweep = read_sweep(plain), read_sweep(nerve)
+    preset = PRESETS["nerve"]
+    rows = nerve_sweep.frames.shape[1]
+    # image_to_probe's second column is the step from one row to the next, in metres
+    np.testing.assert_allclose(
+        np.linalg.norm(nerve_sweep.image_to_probe[:3, 1]), preset.depth / rows, rtol=1e-9
+    )
+    np.testing.assert_allclose(
+        np.linalg.norm(plain_sweep.image_to_probe[:3, 1]), 0.05 / rows, rtol=1e-9
+    )
+    assert nerve_sweep.frames.mean() < 0.6 * plain_sweep.frames.mean()  # a darker preset
+
+
+def test_random_scanner_draws_one_preset_per_subject(monkeypatch, capsys, tmp_path) -> None:
+    out = tmp_path / "subjects"
+    out.mkdir()
+    args = ("simulate", "--out", str(out), "--subjects", "0-1", "--jobs", "1")
+    assert run_main(monkeypatch, capsys, *args, "--scanner", "random", *SHORT)[0] == 0
+    first, second = (read_sweep(path) for path in sorted(out.glob("*.h5")))
+    assert not np.isclose(
+        np.linalg.norm(first.image_to_probe[:3, 1]), np.linalg.norm(second.image_to_probe[:3, 1])
+    )

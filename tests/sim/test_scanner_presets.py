@@ -1,0 +1,178 @@
+"""Scanner presets: each knob moves the image the way the physics says."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from sim.labels import ARTERY, VEIN
+from sim.phantom import Phantom
+from sim.phantom.loader import load_phantom
+from sim.ultrasound.probe import LinearProbe
+from sim.ultrasound.scanner import (
+    PRESETS,
+    RANDOM_RANGES,
+    ScannerPreset,
+    random_preset,
+    scanner_preset,
+)
+from sim.ultrasound.simulator import UltrasoundSimulator
+
+SMALL_PROBE = LinearProbe(width=0.012, cols=96, rows=192)
+"""A narrow probe, so that a pose beside the vessels sees tissue only."""
+PLAIN = ScannerPreset(name="plain", clutter_db=None, grey_gamma=1.0, electronic_noise_db=-60.0)
+"""No clutter, identity grey map, negligible noise: the knobs under test act alone."""
+
+
+@pytest.fixture(scope="module")
+def phantom() -> Phantom:
+    return Phantom(load_phantom("default"))
+
+
+def looking_down(x: float, y: float = 0.0) -> np.ndarray:
+    """Probe pose in the phantom frame: face on the gel at (x, y), imaging straight down,
+    the array along x."""
+    return np.array(
+        [[1.0, 0, 0, x], [0, -1.0, 0, y], [0, 0, -1.0, -0.0003], [0, 0, 0, 1.0]], dtype=np.float64
+    )
+
+
+def render(
+    phantom: Phantom, preset: ScannerPreset, x: float = 0.035, probe: LinearProbe = SMALL_PROBE
+) -> tuple[np.ndarray, np.ndarray]:
+    simulator = UltrasoundSimulator(phantom, preset.probe(probe), preset.settings())
+    image, labels = simulator.render(looking_down(x))
+    return image.astype(np.float64), labels
+
+
+def correlation_width(image: np.ndarray, axis: int) -> float:
+    """Full width (pixels) at half maximum of the image's mean autocorrelation along `axis`,
+    interpolated between lags."""
+    centred = image - image.mean(axis=axis, keepdims=True)
+    spectrum = np.abs(np.fft.rfft(centred, n=2 * image.shape[axis], axis=axis)) ** 2
+    correlation = np.fft.irfft(spectrum, axis=axis).mean(axis=1 - axis)
+    correlation = correlation / correlation[0]
+    below = int(np.argmax(correlation < 0.5))
+    fraction = (correlation[below - 1] - 0.5) / (correlation[below - 1] - correlation[below])
+    return 2.0 * (below - 1 + fraction)
+
+
+def test_higher_frequency_gives_finer_speckle(phantom) -> None:
+    """Lateral width ~ wavelength x F-number and pulse length ~ 1 / bandwidth: doubling the
+    frequency shrinks the speckle grain both ways (the scatterer lattice bounds it below)."""
+    fine = dataclasses.replace(PLAIN, depth=0.02, focal_depth=0.01)  # 0.1 mm rows
+    low = dataclasses.replace(fine, centre_frequency=6.0e6)
+    high = dataclasses.replace(fine, centre_frequency=12.0e6)
+    low_image = render(phantom, low)[0][60:140]
+    high_image = render(phantom, high)[0][60:140]
+    for axis in (0, 1):  # axial, lateral
+        assert correlation_width(high_image, axis) < 0.8 * correlation_width(low_image, axis)
+    assert high.lateral_resolution == pytest.approx(low.lateral_resolution / 2)
+
+
+def test_higher_frequency_attenuates_more_with_depth(phantom) -> None:
+    """With the TGC off, grey falls with depth at 2 x alpha x f dB per cm (round trip) times
+    the grey levels per dB: twice as steep at twice the frequency."""
+    slopes = []
+    for frequency in (5.0e6, 10.0e6):
+        preset = dataclasses.replace(
+            PLAIN, centre_frequency=frequency, gain_db=50.0, dynamic_range_db=80.0
+        )
+        settings = dataclasses.replace(preset.settings(), tgc_attenuation=0.0)
+        simulator = UltrasoundSimulator(phantom, preset.probe(SMALL_PROBE), settings)
+        image = simulator.render(looking_down(0.035))[0].astype(np.float64)
+        depth_cm = (np.arange(SMALL_PROBE.rows) + 0.5) * preset.depth / SMALL_PROBE.rows * 100
+        rows = slice(20, 150)  # clear of the face and of the clipped floor
+        slopes.append(np.polyfit(depth_cm[rows], image[rows].mean(axis=1), 1)[0])
+        gel_attenuation = phantom.spec.layers[0].attenuation_db_cm_mhz
+        expected = -2.0 * gel_attenuation * frequency / 1e6 * 255.0 / 80.0
+        assert slopes[-1] == pytest.approx(expected, rel=0.15)
+    assert slopes[1] == pytest.approx(2.0 * slopes[0], rel=0.15)
+
+
+def test_more_gain_is_brighter_by_the_grey_levels_per_db(phantom) -> None:
+    dim = render(phantom, dataclasses.replace(PLAIN, gain_db=20.0))[0]
+    bright = render(phantom, dataclasses.replace(PLAIN, gain_db=26.0))[0]
+    shown = (dim > 0) & (dim < 255) & (bright < 255)
+    step = (bright[shown] - dim[shown]).mean()
+    assert step == pytest.approx(6.0 * 255.0 / PLAIN.dynamic_range_db, abs=0.6)
+
+
+def test_tgc_sliders_raise_the_image_by_their_offset(phantom) -> None:
+    flat = render(phantom, PLAIN)[0]
+    raised = render(phantom, dataclasses.replace(PLAIN, tgc_sliders_db=(4.0,) * 8))[0]
+    shown = (flat > 0) & (raised < 255)
+    assert (raised[shown] - flat[shown]).mean() == pytest.approx(
+        4.0 * 255.0 / PLAIN.dynamic_range_db, abs=0.6
+    )
+
+
+def test_lower_dynamic_range_gives_more_contrast(phantom) -> None:
+    """Log compression maps dB onto grey levels at 255 / DR each: speckle's 5.57 dB spread
+    shows wider on a narrower range."""
+    wide = render(phantom, dataclasses.replace(PLAIN, dynamic_range_db=72.0, gain_db=36.0))[0]
+    narrow = render(phantom, dataclasses.replace(PLAIN, dynamic_range_db=48.0, gain_db=24.0))[0]
+    ratio = narrow[40:150].std() / wide[40:150].std()
+    assert ratio == pytest.approx(72.0 / 48.0, rel=0.1)
+
+
+def test_grey_gamma_darkens_mid_greys_and_keeps_the_ends(phantom) -> None:
+    linear = render(phantom, PLAIN)[0]
+    curved = render(phantom, dataclasses.replace(PLAIN, grey_gamma=1.5))[0]
+    expected = np.round(255.0 * (linear / 255.0) ** 1.5)
+    np.testing.assert_allclose(curved, expected, atol=1.0)
+    assert curved.mean() < linear.mean()
+
+
+def test_clutter_fills_lumens_and_barely_changes_tissue(phantom) -> None:
+    """Side lobes see the tissue beside a lumen: the lumen brightens by much, the tissue by
+    about 10 log10(1 + 10^(clutter/10)) dB."""
+    probe = LinearProbe(cols=128, rows=128)
+    clean, labels = render(phantom, PLAIN, x=0.0, probe=probe)
+    cluttered, _ = render(phantom, dataclasses.replace(PLAIN, clutter_db=-10.0), 0.0, probe)
+    lumen = np.isin(labels, (ARTERY, VEIN))
+    tissue = (labels == 0) & (clean > 0)
+    assert lumen.sum() > 200
+    assert cluttered[lumen].mean() - clean[lumen].mean() > 15.0
+    tissue_step = (cluttered[tissue] - clean[tissue]).mean()
+    expected = 10.0 * math.log10(1.0 + 0.1) * 255.0 / PLAIN.dynamic_range_db
+    assert tissue_step == pytest.approx(expected, abs=1.5)
+
+
+def test_random_presets_are_seeded_and_within_their_ranges() -> None:
+    assert random_preset(3) == random_preset(3)
+    assert random_preset(3) != random_preset(4)
+    for seed in range(20):
+        preset = random_preset(seed)
+        low, high = RANDOM_RANGES["centre_frequency"]
+        assert low <= preset.centre_frequency <= high
+        assert preset.focal_depth < preset.depth
+        assert len(preset.tgc_sliders_db) == 8
+    assert scanner_preset("random-3") == random_preset(3)
+    assert scanner_preset("vascular") is PRESETS["vascular"]
+
+
+def test_a_preset_sets_the_probe_depth_and_so_the_pixel_spacing() -> None:
+    preset = PRESETS["vascular-deep"]
+    probe = preset.probe(LinearProbe(rows=256))
+    assert probe.pixel_height == pytest.approx(preset.depth / 256)
+    assert probe.centre_frequency == preset.centre_frequency
+
+
+@pytest.mark.parametrize(
+    ("name", "message"),
+    [("vascullar", "unknown scanner preset 'vascullar'"), ("random-x", "unknown scanner preset")],
+)
+def test_unknown_presets_are_refused_by_name(name: str, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        scanner_preset(name)
+
+
+def test_bad_presets_are_refused() -> None:
+    with pytest.raises(ValueError, match="centre_frequency must be 2-20 MHz"):
+        ScannerPreset(centre_frequency=50e6)
+    with pytest.raises(ValueError, match="focal_depth"):
+        ScannerPreset(depth=0.03, focal_depth=0.04)
