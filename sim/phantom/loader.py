@@ -18,16 +18,26 @@ import yaml
 
 from sim.assets import assets_dir
 from sim.phantom.anatomy import FemoralAnatomy, build_bones, build_vessels
-from sim.phantom.spec import BodySpec, Layer, Material, PhantomSpec, Variation, VesselSpec
+from sim.phantom.spec import (
+    DEFAULT_TEXTURE_SCALE,
+    BodySpec,
+    Layer,
+    Material,
+    PhantomSpec,
+    Variation,
+    VesselSpec,
+)
 
 SCALE_KEYS = ("layer_thickness_scale", "echogenicity_scale", "noise_level")
 """Variation keys that are not anatomy parameters."""
 ANATOMY_KEYS = tuple(f.name for f in dataclasses.fields(FemoralAnatomy))
 TOP_KEYS = {
     "name", "description", "side", "seed", "noise_level", "body", "layers", "blood", "wall",
-    "bone", "anatomy", "vessels", "bones", "variation",
+    "bone", "anatomy", "vessels", "bones", "variation", "texture_scale",
 }  # fmt: skip
 MATERIAL_KEYS = ("name", "echogenicity", "attenuation_db_cm_mhz", "impedance_mrayl")
+TEXTURE_KEYS = ("texture_variation", "texture_ridges")
+"""Optional material keys (0 when absent)."""
 
 
 def phantoms_dir() -> Path:
@@ -59,11 +69,14 @@ def _mapping(value: Any, what: str, allowed: tuple[str, ...] | set[str]) -> dict
 
 
 def _material(value: Any, what: str) -> Material:
-    fields = _mapping(value, what, MATERIAL_KEYS)
+    fields = _mapping(value, what, (*MATERIAL_KEYS, *TEXTURE_KEYS))
     missing = [key for key in MATERIAL_KEYS if key not in fields]
     if missing:
         raise ValueError(f"{what}: missing {', '.join(missing)}")
-    return Material(str(fields["name"]), *(float(fields[key]) for key in MATERIAL_KEYS[1:]))
+    numbers = {
+        key: float(fields[key]) for key in (*MATERIAL_KEYS[1:], *TEXTURE_KEYS) if key in fields
+    }
+    return Material(str(fields["name"]), **numbers)
 
 
 def _layers(value: Any) -> tuple[Layer, ...]:
@@ -71,7 +84,7 @@ def _layers(value: Any) -> tuple[Layer, ...]:
         raise ValueError("layers must be a non-empty list")
     layers = []
     for number, entry in enumerate(value):
-        fields = _mapping(entry, f"layers[{number}]", (*MATERIAL_KEYS, "thickness"))
+        fields = _mapping(entry, f"layers[{number}]", (*MATERIAL_KEYS, *TEXTURE_KEYS, "thickness"))
         last = number == len(value) - 1
         if last == ("thickness" in fields):
             raise ValueError(f"layers[{number}]: every layer but the last needs a thickness")
@@ -111,6 +124,13 @@ def _variation(value: Any) -> Variation:
     )
 
 
+def _texture_scale(value: Any) -> tuple[float, float, float]:
+    """`texture_scale: [sx, sy, sz]` in metres."""
+    if not (isinstance(value, list) and len(value) == 3):
+        raise ValueError("texture_scale must be [sx, sy, sz] in metres")
+    return float(value[0]), float(value[1]), float(value[2])
+
+
 def spec_from_mapping(data: Any) -> PhantomSpec:
     """Build a spec from parsed YAML (raises ValueError without the file name)."""
     data = _mapping(data, "spec", TOP_KEYS)
@@ -143,6 +163,7 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         vessels=vessels,
         bones=bones,
         noise_level=float(data.get("noise_level", 0.2)),
+        texture_scale=_texture_scale(data.get("texture_scale", list(DEFAULT_TEXTURE_SCALE))),
         seed=int(data.get("seed", 0)),
         variation=_variation(data.get("variation")),
         anatomy=anatomy,

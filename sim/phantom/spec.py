@@ -20,6 +20,8 @@ if TYPE_CHECKING:
     from sim.phantom.anatomy import FemoralAnatomy
 
 BODY_KINDS = ("block", "leg")
+DEFAULT_TEXTURE_SCALE = (2.5e-3, 8.0e-3, 1.5e-3)
+"""Texture lattice spacing (m) along x, y, z (see `PhantomSpec.texture_scale`)."""
 SIDES = ("right", "left")
 
 
@@ -35,12 +37,24 @@ class Material:
     echogenicity: float
     attenuation_db_cm_mhz: float
     impedance_mrayl: float
+    texture_variation: float = 0.0
+    """Standard deviation (nepers) of a smooth log-normal variation of the scatter amplitude
+    over the phantom's texture field: fat lobules brighter and darker than their neighbours."""
+    texture_ridges: float = 0.0
+    """Echogenicity added along the zero crossings of a second texture field: a network of
+    thin bright lines, the septa between fat lobules or the perimysium between fascicles."""
 
     def __post_init__(self) -> None:
         if self.echogenicity < 0 or self.attenuation_db_cm_mhz < 0:
             raise ValueError(f"material {self.name!r}: echogenicity and attenuation must be >= 0")
         if not self.impedance_mrayl > 0:
             raise ValueError(f"material {self.name!r}: impedance_mrayl must be positive")
+        if self.texture_variation < 0 or self.texture_ridges < 0:
+            raise ValueError(f"material {self.name!r}: texture_* must be >= 0")
+
+    @property
+    def textured(self) -> bool:
+        return self.texture_variation > 0 or self.texture_ridges > 0
 
 
 @dataclass(frozen=True)
@@ -153,6 +167,9 @@ class PhantomSpec:
     vessels: tuple[VesselSpec, ...]
     bones: tuple[VesselSpec, ...] = ()
     noise_level: float = 0.2
+    texture_scale: tuple[float, float, float] = DEFAULT_TEXTURE_SCALE
+    """Lattice spacing (m) of the texture fields along x, y, z: lobules and fascicles are
+    flattened under the skin and drawn out along the leg."""
     seed: int = 0
     subject: int | None = None
     variation: Variation = field(default_factory=Variation)
@@ -172,6 +189,10 @@ class PhantomSpec:
             raise ValueError("bones are given but no bone material")
         if not self.noise_level >= 0:
             raise ValueError(f"noise_level must be >= 0, got {self.noise_level}")
+        if len(self.texture_scale) != 3 or not min(self.texture_scale) > 0:
+            raise ValueError(
+                f"texture_scale must be three positive lengths, got {self.texture_scale}"
+            )
 
     @property
     def lateral_sign(self) -> float:

@@ -27,7 +27,12 @@ import math
 import numba
 import numpy as np
 
-from sim.ultrasound.scatterers import accumulate_line, mix32, unit_pair
+from sim.ultrasound.scatterers import (
+    FIELD_COMPONENT_VARIANCE,
+    accumulate_line,
+    mix32,
+    unit_pair,
+)
 
 _TINY_POWER = np.float32(1e-30)
 _LOG2_POLY = (
@@ -38,6 +43,11 @@ _LOG2_POLY = (
 )
 """Cubic least-squares fit of log2(1 + t) on [0, 1), highest power first; error < 0.0014
 (0.004 dB, against 0.2 dB per grey level)."""
+_TEXTURE_NORMALISER = 1.0 / math.sqrt(FIELD_COMPONENT_VARIANCE)
+"""Scales the texture field to unit variance per component."""
+_INVERSE_RIDGE_WIDTH = np.float32(1.0 / 0.15)
+"""Ridges are where the unit-variance texture component lies within about 0.15 of zero:
+some 12 % of the tissue, in lines a tenth of the texture lattice spacing wide."""
 _MANTISSA = np.int32(0x007FFFFF)
 _ONE_BITS = np.int32(0x3F800000)
 _EXPONENT_BIAS = np.int32(127)
@@ -125,6 +135,11 @@ def scan_lines(
     specular_exponent: float,
     has_clutter: bool,
     clutter: np.ndarray,
+    has_texture: bool,
+    texture_inverse_scale: np.ndarray,
+    texture_seed: np.uint32,
+    texture_variation: np.ndarray,
+    texture_ridges: np.ndarray,
     out_real: np.ndarray,
     out_imag: np.ndarray,
 ) -> None:
@@ -135,6 +150,10 @@ def scan_lines(
     `round_trip_step` = amplitude factor of attenuation over one row there and back,
     `impedance`) have the vessel-wall material appended after the phantom's materials.
     `clutter` (pixels, column-major): scatter power added before attenuation, when `has_clutter`.
+    Texture (when `has_texture`): a second hashed field on a lattice of spacing
+    1 / `texture_inverse_scale` (per axis, phantom frame); its real part varies each material's
+    scatter amplitude log-normally by `texture_variation` (nepers, mean power kept), its
+    imaginary part's zero crossings add `texture_ridges` of echogenicity (see `Material`).
     """
     cols, rows = out_real.shape
     wall = echogenicity.shape[0] - 1
@@ -148,6 +167,19 @@ def scan_lines(
         specular = np.zeros(rows, dtype=np.float32)
         reflect_re = np.zeros(rows, dtype=np.float32)
         reflect_im = np.zeros(rows, dtype=np.float32)
+        texture_re = np.zeros(rows, dtype=np.float32)
+        texture_im = np.zeros(rows, dtype=np.float32)
+        if contact[col] and has_texture:
+            for axis in range(3):
+                start[axis] = texture_inverse_scale[axis] * (origin[axis] + col * col_step[axis])
+            accumulate_line(
+                start,
+                row_step * texture_inverse_scale,
+                _TEXTURE_NORMALISER,
+                texture_seed,
+                texture_re,
+                texture_im,
+            )
         if contact[col]:
             gain = np.float32(1.0)  # round-trip amplitude left after attenuation and interfaces
             previous: int | np.int64 = -1  # previous pixel's effective material (-1 before tissue)
@@ -179,6 +211,11 @@ def scan_lines(
                     gain *= np.float32(1.0) - r * r
                 gain *= round_trip_step[m]
                 scatter = echogenicity[m]
+                if has_texture:
+                    variation = texture_variation[m]
+                    scatter *= np.float32(math.exp(variation * (texture_re[row] - variation)))
+                    ridge = texture_im[row] * _INVERSE_RIDGE_WIDTH
+                    scatter += texture_ridges[m] * np.float32(math.exp(-ridge * ridge))
                 if has_clutter:
                     scatter = np.float32(math.sqrt(scatter * scatter + clutter[n]))
                 amplitude[row] = scatter * gain

@@ -41,10 +41,10 @@ class ScannerPreset:
     f_number: float = 2.0
     """Focal depth over active aperture; with the wavelength it sets the lateral beam width."""
     fractional_bandwidth: float = 0.7
-    gain_db: float = 24.0
+    gain_db: float = 20.0
     dynamic_range_db: float = 60.0
     tgc_sliders_db: tuple[float, ...] = ()
-    grey_gamma: float = 1.3
+    grey_gamma: float = 1.5
     clutter_db: float | None = -10.0
     electronic_noise_db: float = -12.0
 
@@ -140,10 +140,10 @@ RANDOM_RANGES: dict[str, tuple[float, float]] = {
     "focal_fraction": (0.3, 0.7),
     "f_number": (1.5, 3.0),
     "fractional_bandwidth": (0.5, 0.9),
-    "gain_db": (20.0, 32.0),
+    "gain_db": (14.0, 28.0),
     "dynamic_range_db": (48.0, 72.0),
     "tgc_slider_db": (-4.0, 4.0),
-    "grey_gamma": (1.0, 2.0),
+    "grey_gamma": (1.1, 2.2),
     "clutter_db": (-22.0, -8.0),
     "electronic_noise_db": (-24.0, -10.0),
 }

@@ -34,6 +34,8 @@ from sim.ultrasound.settings import UltrasoundSettings
 
 NOISE_COMPONENT_RMS = 1.0 / math.sqrt(3.0)
 """RMS of a uniform [-1, 1] noise component (the hash gives uniform values)."""
+TEXTURE_KEY = 0x7E57
+"""Mixed into the speckle seed for the texture field's seed, so the two are independent."""
 METRES_PER_CM = 0.01
 HZ_PER_MHZ = 1.0e6
 
@@ -79,6 +81,14 @@ class UltrasoundSimulator:
             dtype=np.float32,
         )
         self._impedance = np.array([m.impedance_mrayl for m in materials], dtype=np.float32)
+        self._texture_variation = np.array(
+            [m.texture_variation for m in materials], dtype=np.float32
+        )
+        self._texture_ridges = np.array(
+            [m.texture_ridges * speckle_scale for m in materials], dtype=np.float32
+        )
+        self._has_texture = any(m.textured for m in materials)
+        self._texture_inverse_scale = 1.0 / np.array(spec.texture_scale, dtype=np.float64)
         self._wall_thickness = np.array([v.wall_thickness for v in spec.vessels], dtype=np.float64)
         if len(self._wall_thickness) == 0:
             self._wall_thickness = np.zeros(1)
@@ -99,6 +109,7 @@ class UltrasoundSimulator:
             )
         self._tgc = db_to_amplitude(tgc_db).astype(np.float32)
         self._seed = mix_seed(spec.seed, -1 if spec.subject is None else spec.subject)
+        self._texture_seed = mix_seed(int(self._seed), TEXTURE_KEY)
         noise_rms = spec.noise_level * db_to_amplitude(settings.electronic_noise_db) / self._tgc[-1]
         self._noise_amplitude = noise_rms / (NOISE_COMPONENT_RMS * math.sqrt(2.0))
         self._specular_exponent = math.log(0.5) / math.log(math.cos(settings.specular_angle))
@@ -178,6 +189,11 @@ class UltrasoundSimulator:
             self._specular_exponent,
             self._clutter_power > 0.0,
             self._clutter,
+            self._has_texture,
+            self._texture_inverse_scale,
+            self._texture_seed,
+            self._texture_variation,
+            self._texture_ridges,
             self._echo_real,
             self._echo_imag,
         )

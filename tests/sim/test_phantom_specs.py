@@ -91,7 +91,7 @@ def test_subjects_are_deterministic_and_differ() -> None:
     assert make_subject(load_phantom("default"), 3).vessels != subjects[3].vessels
 
 
-@pytest.mark.parametrize("name", ["default", "leg"])
+@pytest.mark.parametrize("name", ["default", "leg", "femoral"])
 def test_subject_vessels_keep_the_gap(name: str) -> None:
     spec = load_phantom(name)
     for k in range(4):

@@ -174,6 +174,11 @@ def render_layers(attenuation: np.ndarray, impedance: np.ndarray | None = None) 
         1.0,
         False,  # no clutter
         np.zeros(count, np.float32),
+        False,  # no texture
+        np.ones(3),
+        np.uint32(0),
+        np.zeros(materials, np.float32),
+        np.zeros(materials, np.float32),
         echo_real,
         echo_imag,
     )
