@@ -23,7 +23,14 @@ from sim.ultrasound.simulator import UltrasoundSimulator
 
 SMALL_PROBE = LinearProbe(width=0.012, cols=96, rows=192)
 """A narrow probe, so that a pose beside the vessels sees tissue only."""
-PLAIN = ScannerPreset(name="plain", clutter_db=None, grey_gamma=1.0, electronic_noise_db=-60.0)
+PLAIN = ScannerPreset(
+    name="plain",
+    gain_db=26.0,
+    dynamic_range_db=60.0,
+    clutter_db=None,
+    grey_gamma=1.0,
+    electronic_noise_db=-60.0,
+)
 """No clutter, identity grey map, negligible noise: the knobs under test act alone."""
 
 
