@@ -19,6 +19,7 @@ from sim.ultrasound.scanner import (
     random_preset,
     scanner_preset,
 )
+from sim.ultrasound.settings import UltrasoundSettings
 from sim.ultrasound.simulator import UltrasoundSimulator
 
 SMALL_PROBE = LinearProbe(width=0.012, cols=96, rows=192)
@@ -48,9 +49,13 @@ def looking_down(x: float, y: float = 0.0) -> np.ndarray:
 
 
 def render(
-    phantom: Phantom, preset: ScannerPreset, x: float = 0.035, probe: LinearProbe = SMALL_PROBE
+    phantom: Phantom,
+    preset: ScannerPreset,
+    x: float = 0.035,
+    probe: LinearProbe = SMALL_PROBE,
+    base: UltrasoundSettings | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    simulator = UltrasoundSimulator(phantom, preset.probe(probe), preset.settings())
+    simulator = UltrasoundSimulator(phantom, preset.probe(probe), preset.settings(base))
     image, labels = simulator.render(looking_down(x))
     return image.astype(np.float64), labels
 
@@ -69,14 +74,16 @@ def correlation_width(image: np.ndarray, axis: int) -> float:
 
 def test_higher_frequency_gives_finer_speckle(phantom) -> None:
     """Lateral width ~ wavelength x F-number and pulse length ~ 1 / bandwidth: doubling the
-    frequency shrinks the speckle grain both ways (the scatterer lattice bounds it below)."""
-    fine = dataclasses.replace(PLAIN, depth=0.02, focal_depth=0.01)  # 0.1 mm rows
+    frequency halves the speckle grain both ways. Rows of 0.05 mm and a 0.05 mm scatterer
+    lattice, so that neither bounds the grain."""
+    fine = dataclasses.replace(PLAIN, depth=0.01, focal_depth=0.005)
+    lattice = UltrasoundSettings(scatterer_spacing=0.05e-3)
     low = dataclasses.replace(fine, centre_frequency=6.0e6)
     high = dataclasses.replace(fine, centre_frequency=12.0e6)
-    low_image = render(phantom, low)[0][60:140]
-    high_image = render(phantom, high)[0][60:140]
+    low_image = render(phantom, low, base=lattice)[0][40:160]
+    high_image = render(phantom, high, base=lattice)[0][40:160]
     for axis in (0, 1):  # axial, lateral
-        assert correlation_width(high_image, axis) < 0.8 * correlation_width(low_image, axis)
+        assert correlation_width(high_image, axis) < 0.6 * correlation_width(low_image, axis)
     assert high.lateral_resolution == pytest.approx(low.lateral_resolution / 2)
 
 
