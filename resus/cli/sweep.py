@@ -3,12 +3,18 @@ OpenIGTLink, exchange labels with CVAT, draw a preview."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 
 from resus.errors import ResusError
+
+if TYPE_CHECKING:
+    from resus.sweep.model import Sweep
+
+Exported = TypeVar("Exported")
 
 sweep_app = typer.Typer(
     help="Sweep files (resus.sweep/1 HDF5): inspect, import/export PLUS .igs.mha and ROS bags, "
@@ -20,6 +26,34 @@ sweep_app = typer.Typer(
 def _out_folder_exists(path: Path) -> None:
     if not path.parent.is_dir():
         raise ResusError("output folder does not exist", path.parent)
+
+
+def _export_sweep(
+    sweep_path: Path,
+    out: Path,
+    config: Path | None,
+    export: Callable[[Sweep, Path], Exported],
+) -> tuple[Sweep, Path, Exported]:
+    """Read the sweep at `sweep_path`, `export` it to `out` and write its calibration as a PLUS
+    config XML to `config` (default: beside `out`, NAME_config.xml).
+
+    Returns the sweep, the config path and what `export` returned.
+    """
+    from resus.sweep.io import read_sweep
+    from resus.sweep.plus import write_plus_calibration
+
+    config = config or out.with_name(out.name.split(".")[0] + "_config.xml")
+    for path in (out, config):
+        _out_folder_exists(path)
+    sweep = read_sweep(sweep_path)
+    exported = export(sweep, out)
+    write_plus_calibration(sweep.image_to_probe, config)
+    return sweep, config, exported
+
+
+def _present(sweep: Sweep, names: tuple[str, ...]) -> str:
+    """The comma-separated `names` of the sweep's optional data that it holds ('' if none)."""
+    return ", ".join(name for name in names if getattr(sweep, name) is not None)
 
 
 def _describe(path: Path) -> list[tuple[str, str]]:
@@ -133,21 +167,12 @@ def export_plus_command(
     ] = None,
 ) -> None:
     """Export a sweep as a PLUS sequence (.igs.mha, millimetres) plus a PLUS config XML."""
-    from resus.sweep.io import read_sweep
-    from resus.sweep.plus import export_plus_sequence, write_plus_calibration
+    from resus.sweep.plus import export_plus_sequence
 
-    config = config or out.with_name(out.name.split(".")[0] + "_config.xml")
-    for path in (out, config):
-        _out_folder_exists(path)
-    sweep = read_sweep(sweep_path)
-    export_plus_sequence(sweep, out)
-    write_plus_calibration(sweep.image_to_probe, config)
+    sweep, config, _ = _export_sweep(sweep_path, out, config, export_plus_sequence)
     typer.echo(f"exported {len(sweep)} frames to {out}; calibration in {config}")
-    dropped = [
-        name for name in ("labels", "wrench", "joint_positions") if getattr(sweep, name) is not None
-    ]
-    if dropped:
-        typer.echo(f"not exported (PLUS sequences hold no such data): {', '.join(dropped)}")
+    if dropped := _present(sweep, ("labels", "wrench", "joint_positions")):
+        typer.echo(f"not exported (PLUS sequences hold no such data): {dropped}")
 
 
 @sweep_app.command("preview")
@@ -270,22 +295,14 @@ def export_ros_command(
     ] = None,
 ) -> None:
     """Export a sweep as a ROS 2 MCAP bag (images, tf, wrench) for Foxglove and RViz."""
-    from resus.sweep.io import read_sweep
-    from resus.sweep.plus import write_plus_calibration
     from resus.sweep.ros import export_ros
 
-    config = calibration_out or out.with_name(out.name.split(".")[0] + "_config.xml")
-    for path in (out, config):
-        _out_folder_exists(path)
-    sweep = read_sweep(sweep_path)
-    topics = export_ros(sweep, out)
-    write_plus_calibration(sweep.image_to_probe, config)
+    sweep, config, topics = _export_sweep(sweep_path, out, calibration_out, export_ros)
     typer.echo(
         f"exported {len(sweep)} frames to {out} ({', '.join(topics)}); calibration in {config}"
     )
-    dropped = [name for name in ("labels", "joint_positions") if getattr(sweep, name) is not None]
-    if dropped:
-        typer.echo(f"not exported: {', '.join(dropped)}")
+    if dropped := _present(sweep, ("labels", "joint_positions")):
+        typer.echo(f"not exported: {dropped}")
 
 
 @sweep_app.command("attach-labels")

@@ -49,7 +49,7 @@ import numpy as np
 
 from resus.errors import ResusError
 from resus.sweep.model import Sweep, SweepFrame, check_calibration
-from resus.sweep.plus import MM_PER_M
+from resus.sweep.plus import MM_PER_M, to_mm
 
 DEFAULT_PORT = 18944
 """OpenIGTLink's registered port, and PLUS's default."""
@@ -70,20 +70,6 @@ def check_port(port: object, what: str = "OpenIGTLink port", *, allow_zero: bool
     if isinstance(port, bool) or not isinstance(port, int | np.integer) or not low <= port <= 65535:
         raise ResusError(f"{what} must be an integer in {low}..65535, got {port!r}")
     return int(port)
-
-
-def to_mm(matrix: np.ndarray) -> np.ndarray:
-    """A 4x4 map from pixels to metres (rotation and scale included) as a map to millimetres."""
-    matrix = np.array(matrix, dtype=np.float64)
-    matrix[:3] *= MM_PER_M
-    return matrix
-
-
-def from_mm(matrix: np.ndarray) -> np.ndarray:
-    """The inverse of `to_mm`: a map from pixels to millimetres as a map to metres."""
-    matrix = np.array(matrix, dtype=np.float64)
-    matrix[:3] /= MM_PER_M
-    return matrix
 
 
 def pose_to_mm(pose: np.ndarray) -> np.ndarray:

@@ -64,16 +64,17 @@ def _parse_matrix(text: str | None, what: str) -> np.ndarray:
     return values.reshape(4, 4)
 
 
-def _calibration_to_metres(image_to_probe_mm: np.ndarray) -> np.ndarray:
-    """Scale the output rows: pixel -> probe millimetres becomes pixel -> probe metres."""
-    matrix = np.array(image_to_probe_mm, dtype=np.float64)
-    matrix[:3] /= MM_PER_M
+def to_mm(matrix: np.ndarray) -> np.ndarray:
+    """A 4x4 map from pixels to metres (rotation and scale included) as a map to millimetres."""
+    matrix = np.array(matrix, dtype=np.float64)
+    matrix[:3] *= MM_PER_M
     return matrix
 
 
-def _calibration_to_mm(image_to_probe: np.ndarray) -> np.ndarray:
-    matrix = np.array(image_to_probe, dtype=np.float64)
-    matrix[:3] *= MM_PER_M
+def from_mm(matrix: np.ndarray) -> np.ndarray:
+    """The inverse of `to_mm`: a map from pixels to millimetres as a map to metres."""
+    matrix = np.array(matrix, dtype=np.float64)
+    matrix[:3] /= MM_PER_M
     return matrix
 
 
@@ -109,14 +110,14 @@ def read_plus_calibration(config_xml: str | Path) -> np.ndarray:
                 matrix = _parse_matrix(transform.get("Matrix"), f"{ends[0]}To{ends[1]} Matrix")
                 if ends == ("Probe", "Image"):
                     matrix = np.linalg.inv(check_calibration(matrix))
-                return check_calibration(_calibration_to_metres(matrix))
+                return check_calibration(from_mm(matrix))
         raise SweepError('has no <Transform From="Image" To="Probe"> (the calibration)')
 
 
 def write_plus_calibration(image_to_probe: np.ndarray, config_xml: str | Path) -> None:
     """A minimal PLUS config XML holding the Image-to-Probe calibration (millimetres)."""
     path = Path(config_xml)
-    matrix = _matrix_text(_calibration_to_mm(check_calibration(image_to_probe)))
+    matrix = _matrix_text(to_mm(check_calibration(image_to_probe)))
     text = (
         '<PlusConfiguration version="2.1">\n'
         "  <CoordinateDefinitions>\n"
@@ -216,9 +217,7 @@ def import_plus_sequence(
                     "has no ImageToProbeTransform field: give the PLUS config XML with the "
                     "Image to Probe calibration"
                 )
-            calibration = _calibration_to_metres(
-                _parse_matrix(fields[CALIBRATION_FIELD], CALIBRATION_FIELD)
-            )
+            calibration = from_mm(_parse_matrix(fields[CALIBRATION_FIELD], CALIBRATION_FIELD))
         kept, poses, timestamps = [], [], []
         for index in range(len(frames)):
             pose = _frame_pose(fields, index)
@@ -294,7 +293,7 @@ def export_plus_sequence(sweep: Sweep, path: str | Path) -> None:
             "Kinds": "domain domain list",
             "UltrasoundImageOrientation": "MFA",
             "UltrasoundImageType": "BRIGHTNESS",
-            CALIBRATION_FIELD: _matrix_text(_calibration_to_mm(sweep.image_to_probe)),
+            CALIBRATION_FIELD: _matrix_text(to_mm(sweep.image_to_probe)),
         }
         identity = _matrix_text(np.eye(4))
         for index, pose in enumerate(sweep.probe_to_base):

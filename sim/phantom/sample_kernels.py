@@ -10,82 +10,40 @@ from sim.phantom.tube_kernels import (
     INSIDE,
     OUTSIDE,
     locate_cell,
-    nearest_in_cell,
+    nearest_in_grid,
     round_cone_distance,
     round_cone_normal,
     search_offset,
 )
 
 
-@njit(cache=True)
-def _inside_label(
-    px,
-    py,
-    pz,
-    c,
-    segments,
-    origin,
-    cell_size,
-    shape,
-    cell_start,
-    items,
-    dists,
-    state,
-    segment_label,
-):
-    """Label of the tube containing the point (0 if none), from its grid cell."""
-    if c < 0 or state[c] == OUTSIDE:
+@njit(cache=True, inline="always")
+def inside_label(px, py, pz, grid, segment_label):
+    """Label of the tube of `grid` (a `tube_kernels.Grid`) containing the point, 0 if none."""
+    c = locate_cell(px, py, pz, grid)
+    if c < 0 or grid.state[c] == OUTSIDE:
         return 0
-    first = cell_start[c]
-    if state[c] == INSIDE:
-        return segment_label[items[first]]
-    offset = search_offset(px, py, pz, c, origin, cell_size, shape)
-    for m in range(first, cell_start[c + 1]):
-        if dists[m] - offset >= 0.0:
+    first = grid.cell_start[c]
+    if grid.state[c] == INSIDE:
+        return segment_label[grid.items[first]]
+    offset = search_offset(px, py, pz, c, grid)
+    for m in range(first, grid.cell_start[c + 1]):
+        if grid.dists[m] - offset >= 0.0:
             break
-        s = items[m]
-        if round_cone_distance(px, py, pz, segments[s]) < 0.0:
+        s = grid.items[m]
+        if round_cone_distance(px, py, pz, grid.segments[s]) < 0.0:
             return segment_label[s]
     return 0
 
 
 @njit(cache=True, parallel=True)
-def label_points(
-    points,
-    body_kind,
-    body_params,
-    segments,
-    origin,
-    cell_size,
-    shape,
-    cell_start,
-    items,
-    dists,
-    state,
-    segment_label,
-    out,
-):
+def label_points(points, body_kind, body_params, grid, segment_label, out):
     """Label (0 background, 1 artery, 2 vein) of each point; 0 outside the body."""
     for p in prange(points.shape[0]):
         x, y, z = points[p, 0], points[p, 1], points[p, 2]
         label = 0
         if inside_body(body_kind, body_params, x, y, z):
-            c = locate_cell(x, y, z, origin, cell_size, shape)
-            label = _inside_label(
-                x,
-                y,
-                z,
-                c,
-                segments,
-                origin,
-                cell_size,
-                shape,
-                cell_start,
-                items,
-                dists,
-                state,
-                segment_label,
-            )
+            label = inside_label(x, y, z, grid, segment_label)
         out[p] = label
 
 
@@ -97,24 +55,11 @@ def sample_points(
     layer_bottoms,
     blood_index,
     bone_index,
-    segments,
-    origin,
-    cell_size,
-    shape,
-    cell_start,
-    items,
-    dists,
+    vessels,
     segment_tube,
     segment_label,
     cutoff,
-    bone_segments,
-    bone_origin,
-    bone_cell_size,
-    bone_shape,
-    bone_cell_start,
-    bone_items,
-    bone_dists,
-    bone_state,
+    bones,
     bone_label,
     label,
     material,
@@ -123,19 +68,19 @@ def sample_points(
     normal,
     index,
 ):
-    """Everything the ultrasound needs per point, written into the output arrays."""
+    """Everything the ultrasound needs per point, written into the output arrays.
+
+    `vessels` and `bones` are `tube_kernels.Grid`s; the vessels' within `cutoff`.
+    """
     for p in prange(points.shape[0]):
         x, y, z = points[p, 0], points[p, 1], points[p, 2]
         depth[p] = depth_below_skin(body_kind, body_params, x, y, z)
-        d, s = np.inf, -1
-        c = locate_cell(x, y, z, origin, cell_size, shape)
-        if c >= 0:
-            d, s = nearest_in_cell(
-                x, y, z, c, segments, origin, cell_size, shape, cell_start, items, dists
-            )
+        d, s = nearest_in_grid(x, y, z, vessels)
         if d < cutoff:
             distance[p] = d
-            normal[p, 0], normal[p, 1], normal[p, 2] = round_cone_normal(x, y, z, segments[s])
+            normal[p, 0], normal[p, 1], normal[p, 2] = round_cone_normal(
+                x, y, z, vessels.segments[s]
+            )
             index[p] = segment_tube[s]
         else:
             distance[p] = np.inf
@@ -152,24 +97,5 @@ def sample_points(
                 while layer < layer_bottoms.shape[0] and depth[p] > layer_bottoms[layer]:
                     layer += 1
                 material[p] = layer
-                if bone_index >= 0:
-                    cb = locate_cell(x, y, z, bone_origin, bone_cell_size, bone_shape)
-                    if (
-                        _inside_label(
-                            x,
-                            y,
-                            z,
-                            cb,
-                            bone_segments,
-                            bone_origin,
-                            bone_cell_size,
-                            bone_shape,
-                            bone_cell_start,
-                            bone_items,
-                            bone_dists,
-                            bone_state,
-                            bone_label,
-                        )
-                        > 0
-                    ):
-                        material[p] = bone_index
+                if bone_index >= 0 and inside_label(x, y, z, bones, bone_label) > 0:
+                    material[p] = bone_index

@@ -53,11 +53,9 @@ class TubeIndex:
         arrays = tube_kernels.build_grid(packed, origin, float(cell_size), shape, float(cutoff))
         return cls(chain, packed, float(cutoff), float(cell_size), origin, shape, *arrays)
 
-    def grid_arguments(
-        self,
-    ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The arrays the kernels take, in their order (segments first)."""
-        return (
+    def kernel_grid(self) -> tube_kernels.Grid:
+        """The grid as the query kernels take it."""
+        return tube_kernels.Grid(
             self.packed,
             self.origin,
             self.cell_size,
@@ -65,11 +63,12 @@ class TubeIndex:
             self.cell_start,
             self.items,
             self.item_distance,
+            self.cell_state,
         )
 
     def nearest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Distance to the nearest surface and that segment; (inf, -1) beyond the cutoff."""
-        return tube_kernels.nearest_segments(points, *self.grid_arguments(), self.cutoff)
+        return tube_kernels.nearest_segments(points, self.kernel_grid(), self.cutoff)
 
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Exact signed distance to the union of the tubes, everywhere."""
@@ -85,6 +84,6 @@ class TubeIndex:
             np.asarray(origin, dtype=np.float64),
             float(spacing),
             np.asarray(shape, dtype=np.int64),
-            *self.grid_arguments(),
+            self.kernel_grid(),
             self.cutoff,
         )

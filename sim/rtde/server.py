@@ -18,6 +18,7 @@ import struct
 import threading
 import time
 from collections import deque
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 from sim.rtde import dashboard, protocol
@@ -306,18 +307,24 @@ class Emulator:
             self._sessions.append(session)
         session.serve()
 
-    def _serve_dashboard(self, sock: socket.socket) -> None:
-        sock.sendall((dashboard.WELCOME + "\n").encode())
-        buffer = b""
+    def _received(self, sock: socket.socket, size: int) -> Iterator[bytes]:
+        """What a client sends, up to `size` bytes a read, until it closes the connection, the
+        connection fails or the server stops."""
         while not self._stopping.is_set():
             try:
-                chunk = sock.recv(4096)
+                chunk = sock.recv(size)
             except TimeoutError:
                 continue
             except OSError:
                 return
             if not chunk:
                 return
+            yield chunk
+
+    def _serve_dashboard(self, sock: socket.socket) -> None:
+        sock.sendall((dashboard.WELCOME + "\n").encode())
+        buffer = b""
+        for chunk in self._received(sock, 4096):
             buffer += chunk
             while b"\n" in buffer:
                 line, buffer = buffer.split(b"\n", 1)
@@ -328,15 +335,7 @@ class Emulator:
 
     def _serve_script(self, sock: socket.socket) -> None:
         text = ""
-        while not self._stopping.is_set():
-            try:
-                chunk = sock.recv(65536)
-            except TimeoutError:
-                continue
-            except OSError:
-                return
-            if not chunk:
-                return
+        for chunk in self._received(sock, 65536):
             text += chunk.decode(errors="replace")
             while (match := _PROGRAM.search(text)) is not None:
                 log.info("script port: program of %d bytes received", len(match.group(0)))

@@ -31,7 +31,6 @@ import contextlib
 import socket
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,9 +38,9 @@ from typing import Any
 
 import numpy as np
 
-from resus.acquisition.backends.video import to_grey
+from resus.acquisition.backends.video import BufferedProbe, to_grey
 from resus.acquisition.calibration.probe import ProbeCalibration
-from resus.acquisition.probe import Frame, Probe
+from resus.acquisition.probe import Frame
 from resus.acquisition.safety import SafetyViolation
 from resus.errors import ResusError
 from resus.sweep.igtl import (
@@ -49,10 +48,10 @@ from resus.sweep.igtl import (
     IMAGE_NAME,
     TRANSFORM_NAME,
     check_port,
-    from_mm,
     pose_from_mm,
 )
 from resus.sweep.model import check_calibration
+from resus.sweep.plus import from_mm
 from sim.transforms import invert_pose
 
 HEADER_SIZE = 58
@@ -117,15 +116,15 @@ def grey_frame(image: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(to_grey(np.ascontiguousarray(image), "rgb"))  # IGTL is RGB(A)
 
 
-class IgtlProbe(Probe):
+class IgtlProbe(BufferedProbe):
     """Frames of an OpenIGTLink IMAGE stream, grey, stamped at receipt on `clock`."""
 
     def __init__(
         self, config: IgtlProbeConfig, clock: Callable[[], float] = time.monotonic
     ) -> None:
         """Connect and wait for the first frame (a missing server or stream fails here)."""
+        super().__init__(clock, config.buffer_frames)
         self.config = config
-        self.clock = clock
         self.where = f"OpenIGTLink server {config.host}:{config.port}"
         calibration = None
         if config.calibration is not None:
@@ -137,26 +136,21 @@ class IgtlProbe(Probe):
                     config.calibration,
                 )
         self._socket = self._connect()
-        self.dropped = 0
-        """Frames lost because nobody polled for `buffer_frames` frames."""
         self.ended: str | None = None
         """Why the stream stopped, or None while it runs."""
         self.seen: dict[str, set[str]] = {}
         """Device names received, by message type (to say what a server sends)."""
-        self._frames: deque[TrackedFrame] = deque()
         self._track: list[tuple[float, np.ndarray]] = []
         self._pending: TrackedFrame | None = None
         self._latest_transform: tuple[float, np.ndarray] | None = None
         self._first: TrackedFrame | None = None
         self._first_matrix: np.ndarray | None = None
-        self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)
-        self._stopping = threading.Event()
         self._thread = threading.Thread(target=self._read_loop, name="igtl-read", daemon=True)
         self._thread.start()
         try:
             first, matrix = self._wait_for_first_frame()
-            self._shape: tuple[int, int] = (first.image.shape[0], first.image.shape[1])
+            self._shape = (first.image.shape[0], first.image.shape[1])
             if calibration is not None:
                 self._image_to_probe = calibration.image_to_probe(self._shape)
             else:
@@ -315,10 +309,7 @@ class IgtlProbe(Probe):
 
     def _emit(self, frame: TrackedFrame) -> None:
         """Queue a finished frame (the lock is held)."""
-        if len(self._frames) >= self.config.buffer_frames:
-            self._frames.popleft()
-            self.dropped += 1
-        self._frames.append(frame)
+        self._queue(frame)
         if frame.tracker_pose is not None:
             self._track.append((frame.timestamp, frame.tracker_pose))
         if self._first is None:
@@ -327,20 +318,11 @@ class IgtlProbe(Probe):
 
     # -- the Probe interface --------------------------------------------------------------
 
-    @property
-    def image_to_probe(self) -> np.ndarray:
-        return self._image_to_probe
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return self._shape
-
     def poll(self) -> list[Frame]:
         """Frames received since the last call, oldest first; once the stream has ended and
         every frame received before has been returned, raises `ProbeLinkLost`."""
         with self._lock:
-            frames: list[Frame] = list(self._frames)
-            self._frames.clear()
+            frames = self._take_frames()
             ended = self.ended
         if not frames and ended is not None:
             raise ProbeLinkLost(f"{self.where}: {ended}")
@@ -357,15 +339,7 @@ class IgtlProbe(Probe):
 
     def close(self) -> None:
         """Stop the reader thread and disconnect; safe to call twice."""
-        self._stopping.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=2.0)
+        self._stop_thread()
         with contextlib.suppress(OSError):
             self._socket.shutdown(socket.SHUT_RDWR)
         self._socket.close()
-
-    def __enter__(self) -> IgtlProbe:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()

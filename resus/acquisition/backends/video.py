@@ -21,6 +21,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Self
 
 import numpy as np
 
@@ -76,7 +77,59 @@ def to_grey(image: np.ndarray, colour_order: str = "bgr") -> np.ndarray:
     raise ResusError(f"the video delivers frames of shape {image.shape}; expected an image")
 
 
-class VideoProbe(Probe):
+class BufferedProbe(Probe):
+    """A probe whose background thread `_thread` queues frames until `poll` takes them: at most
+    `buffer_frames`, the oldest dropped (and counted) beyond. Subclasses set `_thread`,
+    `_image_to_probe` and `_shape`."""
+
+    _thread: threading.Thread
+    _image_to_probe: np.ndarray
+    _shape: tuple[int, int]
+
+    def __init__(self, clock: Callable[[], float], buffer_frames: int) -> None:
+        self.clock = clock
+        self.dropped = 0
+        """Frames lost because nobody polled for `buffer_frames` frames."""
+        self._buffer_frames = buffer_frames
+        self._frames: deque[Frame] = deque()
+        self._lock = threading.Lock()
+        self._stopping = threading.Event()
+
+    def _queue(self, frame: Frame) -> None:
+        """Append a frame, dropping the oldest when the buffer is full (hold `_lock`)."""
+        if len(self._frames) >= self._buffer_frames:
+            self._frames.popleft()
+            self.dropped += 1
+        self._frames.append(frame)
+
+    def _take_frames(self) -> list[Frame]:
+        """Every queued frame, oldest first, leaving the buffer empty (hold `_lock`)."""
+        frames = list(self._frames)
+        self._frames.clear()
+        return frames
+
+    def _stop_thread(self) -> None:
+        """Ask the background thread to stop and wait for it (a while at most)."""
+        self._stopping.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=2.0)
+
+    @property
+    def image_to_probe(self) -> np.ndarray:
+        return self._image_to_probe
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self._shape
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+class VideoProbe(BufferedProbe):
     """Frames of a video source, cropped and grey, stamped at capture on `clock`."""
 
     def __init__(
@@ -85,8 +138,8 @@ class VideoProbe(Probe):
         """Open the source and read its first frame (a bad source or crop fails here)."""
         import cv2
 
+        super().__init__(clock, config.buffer_frames)
         self.config = config
-        self.clock = clock
         calibration = ProbeCalibration.from_yaml(config.calibration)
         # OpenCV's own warnings would repeat the one-line errors below
         cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
@@ -109,13 +162,9 @@ class VideoProbe(Probe):
         self._image_to_probe = calibration.image_to_probe(self._shape)
         self.frame_rate = float(self._capture.get(cv2.CAP_PROP_FPS) or 0.0)
         """Frames per second the source reports (0 when it does not say)."""
-        self.dropped = 0
-        """Frames lost because nobody polled for `buffer_frames` frames."""
         self.ended: str | None = None
         """Why the source stopped delivering (end of file, lost device), or None."""
-        self._frames: deque[Frame] = deque([Frame(stamp, self._cut(grey))])
-        self._lock = threading.Lock()
-        self._stopping = threading.Event()
+        self._frames.append(Frame(stamp, self._cut(grey)))
         self._is_file = isinstance(config.source, str) and Path(config.source).is_file()
         self._thread = threading.Thread(target=self._grab_loop, name="video-grab", daemon=True)
         self._thread.start()
@@ -159,36 +208,15 @@ class VideoProbe(Probe):
                 break
             frame = Frame(stamp, self._cut(to_grey(image)))
             with self._lock:
-                if len(self._frames) >= self.config.buffer_frames:
-                    self._frames.popleft()
-                    self.dropped += 1
-                self._frames.append(frame)
+                self._queue(frame)
             index += 1
-
-    @property
-    def image_to_probe(self) -> np.ndarray:
-        return self._image_to_probe
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return self._shape
 
     def poll(self) -> list[Frame]:
         """Frames grabbed since the last call, oldest first."""
         with self._lock:
-            frames = list(self._frames)
-            self._frames.clear()
-        return frames
+            return self._take_frames()
 
     def close(self) -> None:
         """Stop the grab thread and release the device; safe to call twice."""
-        self._stopping.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=2.0)
+        self._stop_thread()
         self._capture.release()
-
-    def __enter__(self) -> VideoProbe:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
