@@ -28,6 +28,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "resus.cli.reconstruct",
     "resus.cli.reslice",
     "resus.cli.train",
+    "resus.cli.evaluate",
     "resus.cli.emulate",
     "resus.cli.view",
     "resus.cli.plan",
@@ -35,6 +36,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "resus.cli.calibrate_time",
     "resus.cli.vessels",
     "resus.cli.experiment",
+    "resus.cli.realism",
 )
 USAGE_STATUS = 2
 INTERRUPTED_STATUS = 130

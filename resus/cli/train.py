@@ -17,13 +17,21 @@ def register(app: typer.Typer) -> None:
 
     @app.command("train")
     def train_command(
-        sweeps: Annotated[
-            list[Path],
-            typer.Option(help="Labelled sweep file or directory of them (repeat for more)."),
-        ],
         out: Annotated[
             Path, typer.Option(help="Output folder: checkpoint.pt, curves.png, metrics.json.")
         ],
+        sweeps: Annotated[
+            list[Path] | None,
+            typer.Option(help="Labelled sweep file or directory of them (repeat for more)."),
+        ] = None,
+        images: Annotated[
+            Path | None,
+            typer.Option(help="Folder of PNG/JPEG images to train on as well; needs --masks."),
+        ] = None,
+        masks: Annotated[
+            Path | None,
+            typer.Option(help="Folder of PNG masks named like the --images (nonzero = vessel)."),
+        ] = None,
         reslices: Annotated[
             list[Path] | None,
             typer.Option(help="Reslice dataset file or directory (repeat); for --regime resus."),
@@ -41,12 +49,19 @@ def register(app: typer.Typer) -> None:
             typer.Option(help="Hold this subject out and report its IoU (one LOSO fold)."),
         ] = None,
     ) -> None:
-        """Train a U-Net on labelled sweeps (plus reslices of the training subjects)."""
+        """Train a U-Net on labelled sweeps and/or image folders (plus reslices of the training
+        subjects)."""
+        from resus.cli.evaluate import read_image_folders
         from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
         from resus.segmentation.loso import REGIMES, make_split, run_regime
         from resus.segmentation.model import resolve_device
         from resus.segmentation.presets import get_preset
 
+        if (images is None) != (masks is None):
+            given, missing = ("--images", "--masks") if masks is None else ("--masks", "--images")
+            raise ResusError(f"{given}: needs {missing} too (images and their masks)")
+        if not sweeps and images is None:
+            raise ResusError("no training data: give --sweeps, or --images with --masks")
         parse_choice(regime, "--regime", REGIMES)
         if regime == "resus" and not reslices:
             raise ResusError("--regime resus: no reslices given (--reslices)")
@@ -57,7 +72,15 @@ def register(app: typer.Typer) -> None:
         with flag_error("--device"):
             torch_device = resolve_device(device)
         with flag_error("--sweeps"):
-            frames = load_sweep_frames(sweeps)
+            frames = load_sweep_frames(sweeps or [])
+        if images is not None and masks is not None:
+            folder = read_image_folders(images, masks)
+            frames += folder.labelled_sets()
+            if not folder.separates_classes:
+                typer.echo(
+                    f"{masks}: the masks do not tell artery from vein: "
+                    "their vessels train as label 1 (artery)"
+                )
         with flag_error("--reslices"):
             reslice_sets = load_reslice_sets(reslices or [])
         split = make_split(frames, reslice_sets, test_subject, settings.validation_fraction)

@@ -12,6 +12,9 @@ sweeps, reslices from volumes and synthetic test images all go through the same 
   seeded, early-stopped fit), `curves` (its PNG).
 - `metrics` (pooled vessel IoU), `stats` (paired t-test), `loso` (the four regimes and
   leave-one-subject-out evaluation), `inference` (segmenting new frames).
+- Real images: `folders` reads a folder of images and one of masks; `trained_model` wraps a
+  checkpoint (`load_model(path).predict(images)`); `evaluate` scores a model on a folder
+  (vessel IoU and Dice, overlays, metrics.json).
 
 The names below are imported from their modules on first use, so `resus.segmentation.presets`
 (which experiment settings and data-preparation workers import) does not load torch.
@@ -27,6 +30,8 @@ if TYPE_CHECKING:
     from resus.segmentation.checkpoint import load_checkpoint, save_checkpoint
     from resus.segmentation.curves import plot_training_curves
     from resus.segmentation.data import LabelledImages, SegmentationDataset
+    from resus.segmentation.evaluate import Evaluation, Overlap, evaluate_folder, score_labels
+    from resus.segmentation.folders import FolderImages, read_folders
     from resus.segmentation.inference import predict
     from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
     from resus.segmentation.loso import (
@@ -54,12 +59,15 @@ if TYPE_CHECKING:
     from resus.segmentation.stats import PairedTest, paired_t_test
     from resus.segmentation.synthetic import synthetic_subject
     from resus.segmentation.train import EpochRecord, TrainingResult, TrainingSummary, train_model
+    from resus.segmentation.trained_model import TrainedModel, load_model
 
 _MODULES: dict[str, tuple[str, ...]] = {
     "augment": ("build_augmentation",),
     "checkpoint": ("load_checkpoint", "save_checkpoint"),
     "curves": ("plot_training_curves",),
     "data": ("LabelledImages", "SegmentationDataset"),
+    "evaluate": ("Evaluation", "Overlap", "evaluate_folder", "score_labels"),
+    "folders": ("FolderImages", "read_folders"),
     "inference": ("predict",),
     "loaders": ("load_reslice_sets", "load_sweep_frames"),
     "loso": (
@@ -76,6 +84,7 @@ _MODULES: dict[str, tuple[str, ...]] = {
     "stats": ("PairedTest", "paired_t_test"),
     "synthetic": ("synthetic_subject",),
     "train": ("EpochRecord", "TrainingResult", "TrainingSummary", "train_model"),
+    "trained_model": ("TrainedModel", "load_model"),
 }  # fmt: skip
 _HOMES = {name: module for module, names in _MODULES.items() for name in names}
 
@@ -87,22 +96,28 @@ __all__ = [
     "REGIMES",
     "AugmentationConfig",
     "EpochRecord",
+    "Evaluation",
+    "FolderImages",
     "LabelledImages",
     "LosoResult",
     "ModelConfig",
+    "Overlap",
     "PairedTest",
     "RegimeRun",
     "SegmentationDataset",
     "SegmentationLoss",
     "Split",
+    "TrainedModel",
     "TrainingPreset",
     "TrainingResult",
     "TrainingSummary",
     "VesselIoU",
     "build_augmentation",
     "build_model",
+    "evaluate_folder",
     "get_preset",
     "load_checkpoint",
+    "load_model",
     "load_reslice_sets",
     "load_sweep_frames",
     "make_split",
@@ -110,10 +125,12 @@ __all__ = [
     "plot_training_curves",
     "pooled_iou",
     "predict",
+    "read_folders",
     "resolve_device",
     "run_loso",
     "run_regime",
     "save_checkpoint",
+    "score_labels",
     "synthetic_subject",
     "train_model",
     "vessel_iou",

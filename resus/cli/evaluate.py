@@ -1,0 +1,54 @@
+"""`resus evaluate`: score a trained model on a folder of real images and their masks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from resus.cli.parsers import flag_error
+
+if TYPE_CHECKING:
+    from resus.segmentation.folders import FolderImages
+
+
+def read_image_folders(images: Path, masks: Path) -> FolderImages:
+    """The images and masks of `--images` and `--masks`; a missing or empty folder is
+    reported under its flag, a problem with a file names the file."""
+    from resus.segmentation.folders import MASK_SUFFIXES, image_files, read_folders
+
+    with flag_error("--images"):
+        image_files(images)
+    with flag_error("--masks"):
+        image_files(masks, MASK_SUFFIXES)
+    return read_folders(images, masks)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the `evaluate` command to the root app."""
+
+    @app.command("evaluate")
+    def evaluate_command(
+        model: Annotated[Path, typer.Option(help="Checkpoint written by `resus train`.")],
+        images: Annotated[Path, typer.Option(help="Folder of PNG/JPEG images, any size.")],
+        masks: Annotated[Path, typer.Option(help="Folder of PNG masks named like the images.")],
+        out: Annotated[
+            Path, typer.Option(help="Output folder: metrics.json and overlays/NAME.png.")
+        ] = Path("evaluation"),
+        device: Annotated[str, typer.Option(help="auto (CUDA when present), cpu, cuda.")] = "auto",
+    ) -> None:
+        """Segment every image, score vessel IoU and Dice against its mask, draw overlays."""
+        from resus.segmentation.evaluate import evaluate_folder
+        from resus.segmentation.model import resolve_device
+        from resus.segmentation.trained_model import load_model
+
+        with flag_error("--device"):
+            torch_device = resolve_device(device)
+        with flag_error("--model"):
+            trained = load_model(model, torch_device)
+        data = read_image_folders(images, masks)
+        evaluation = evaluate_folder(trained, data, out)
+        for line in evaluation.summary():
+            typer.echo(line)
+        typer.echo(f"wrote {out / 'metrics.json'} and {len(data)} overlays in {out / 'overlays'}")

@@ -1,0 +1,96 @@
+"""A trained segmentation model from its checkpoint, ready to label images of any size.
+
+`load_model(path).predict(images)` is the short way from a `checkpoint.pt` (as `resus train`
+writes it) to labels: the network, its input size and its device travel together, so a caller
+need not know the preset the model was trained with.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import overload
+
+import numpy as np
+import torch
+from torch import nn
+
+from resus.errors import ResusError
+from resus.segmentation.checkpoint import load_checkpoint
+from resus.segmentation.inference import predict
+from resus.segmentation.model import resolve_device
+from resus.segmentation.presets import ModelConfig, TrainingPreset
+
+
+class TrainedModel:
+    """A U-Net in eval mode with the config it was saved with."""
+
+    def __init__(self, network: nn.Module, config: dict, path: Path | None = None) -> None:
+        self.network = network.eval()
+        self.config = config
+        """The checkpoint's config (`model`, and for trained ones `preset`, `regime`, ...)."""
+        self.path = path
+        """The checkpoint file it came from, if any."""
+        self.image_size = ModelConfig.from_dict(config["model"]).image_size
+        """Side of the square input the network was trained at."""
+        self.batch_size = int(
+            config.get("preset", {}).get(
+                "evaluation_batch_size", TrainingPreset.evaluation_batch_size
+            )
+        )
+        """Images per forward pass (the training preset's evaluation batch size)."""
+
+    @property
+    def device(self) -> torch.device:
+        """Where the network runs."""
+        return next(self.network.parameters()).device
+
+    @overload
+    def predict(self, images: np.ndarray, *, progress: bool = False) -> np.ndarray: ...
+
+    @overload
+    def predict(
+        self, images: Sequence[np.ndarray], *, progress: bool = False
+    ) -> list[np.ndarray]: ...
+
+    def predict(
+        self, images: np.ndarray | Sequence[np.ndarray], *, progress: bool = False
+    ) -> np.ndarray | list[np.ndarray]:
+        """Labels (0 background, 1 artery, 2 vein) of uint8 grey images at their own size.
+
+        An (N, H, W) array gives an (N, H, W) array, one (H, W) image an (H, W) array, and a
+        list of (H, W) images (sizes may differ) a list; images of one size share batches.
+        """
+        if isinstance(images, np.ndarray) and images.ndim == 2:
+            return self.predict(images[None], progress=progress)[0]
+        if isinstance(images, np.ndarray):
+            return predict(
+                self.network,
+                images,
+                image_size=self.image_size,
+                batch_size=self.batch_size,
+                progress=progress,
+            )
+        by_shape: dict[tuple[int, ...], list[int]] = {}
+        for index, image in enumerate(images):
+            image = np.asarray(image)
+            if image.ndim != 2 or image.dtype != np.uint8:
+                raise ResusError(
+                    f"image {index}: expected an (H, W) uint8 image, got {image.shape} "
+                    f"{image.dtype}"
+                )
+            by_shape.setdefault(image.shape, []).append(index)
+        labels: list[np.ndarray] = [np.empty(0, np.uint8)] * len(images)
+        for indices in by_shape.values():
+            stacked = np.stack([np.asarray(images[i]) for i in indices])
+            for index, label in zip(indices, self.predict(stacked, progress=progress), strict=True):
+                labels[index] = label
+        return labels
+
+
+def load_model(path: Path, device: str | torch.device | None = "auto") -> TrainedModel:
+    """The model saved at `path` (a `resus.segmentation-checkpoint/1` file) on `device`
+    ("auto": CUDA when present, else the CPU)."""
+    torch_device = device if isinstance(device, torch.device) else resolve_device(device)
+    network, config = load_checkpoint(Path(path), torch_device)
+    return TrainedModel(network, config, Path(path))

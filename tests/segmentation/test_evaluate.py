@@ -1,0 +1,153 @@
+"""Scoring a model on labelled images: IoU and Dice by hand, `load_model(path).predict`, and
+`evaluate_folder`'s metrics.json and overlays."""
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from PIL import Image
+
+from resus.errors import ResusError
+from resus.segmentation import load_model
+from resus.segmentation.checkpoint import save_checkpoint
+from resus.segmentation.evaluate import (
+    TRUTH_COLOUR,
+    evaluate_folder,
+    overlay,
+    score_labels,
+)
+from resus.segmentation.folders import read_folders
+from resus.segmentation.inference import predict
+from resus.segmentation.model import build_model
+from resus.segmentation.presets import QUICK
+from sim.labels import ARTERY, VEIN, label_colour
+
+torch.set_num_threads(1)  # one per pytest-xdist worker: more oversubscribes the 2 cores
+
+
+def boxes(*corners: tuple[int, int, int, int, int]) -> np.ndarray:
+    """A 4 x 4 label map with `value` in rows r0:r1, columns c0:c1 for each (r0, r1, c0, c1,
+    value)."""
+    labels = np.zeros((4, 4), np.uint8)
+    for r0, r1, c0, c1, value in corners:
+        labels[r0:r1, c0:c1] = value
+    return labels
+
+
+def test_iou_and_dice_match_a_hand_count() -> None:
+    # image a: truth rows 0-1, prediction rows 1-2 (columns 0-1): intersection 2, union 6
+    # image b: nothing in either: IoU 1, Dice 1 by definition
+    # image c: truth 4 px "vessel" (label 1), prediction 2 of them called vein: I 2, U 4
+    truth = [boxes((0, 2, 0, 2, 1)), boxes(), boxes((2, 4, 2, 4, 1))]
+    predicted = [boxes((1, 3, 0, 2, 1)), boxes(), boxes((2, 3, 2, 4, VEIN))]
+    evaluation = score_labels(["a", "b", "c"], predicted, truth, separates_classes=False)
+    assert evaluation.classes == ("vessel",)
+    a, b, c = (image["vessel"] for image in evaluation.per_image)
+    assert (a.intersection, a.union, a.iou, a.dice) == (2, 6, pytest.approx(1 / 3), 0.5)
+    assert (b.iou, b.dice) == (1.0, 1.0)
+    assert (c.intersection, c.union, c.iou, c.dice) == (2, 4, 0.5, pytest.approx(2 / 3))
+    pooled = evaluation.pooled()["vessel"]
+    assert (pooled.intersection, pooled.union) == (4, 10)
+    assert (pooled.iou, pooled.dice) == (pytest.approx(0.4), pytest.approx(8 / 14))
+    mean = evaluation.per_image_mean()["vessel"]
+    assert mean["iou"] == pytest.approx((1 / 3 + 1 + 0.5) / 3)
+    assert mean["dice"] == pytest.approx((0.5 + 1 + 2 / 3) / 3)
+    assert evaluation.both_empty() == {"vessel": 1}
+    table = evaluation.to_dict()
+    assert table["pooled"]["vessel"]["iou"] == pytest.approx(0.4)
+    assert [row["name"] for row in table["per_image"]] == ["a", "b", "c"]
+
+
+def test_artery_and_vein_are_scored_apart_when_the_masks_tell_them() -> None:
+    # truth: artery top-left 2x2, vein bottom-right 2x2
+    # prediction: artery top-left 2x2 right, vein called artery in its top row
+    truth = [boxes((0, 2, 0, 2, ARTERY), (2, 4, 2, 4, VEIN))]
+    predicted = [boxes((0, 2, 0, 2, ARTERY), (2, 3, 2, 4, ARTERY))]
+    evaluation = score_labels(["x"], predicted, truth, separates_classes=True)
+    assert evaluation.classes == ("vessel", "artery", "vein")
+    pooled = evaluation.pooled()
+    assert (pooled["artery"].intersection, pooled["artery"].union) == (4, 6)
+    assert (pooled["vein"].intersection, pooled["vein"].union) == (0, 4)
+    assert (pooled["vessel"].intersection, pooled["vessel"].union) == (6, 8)
+    assert (pooled["vein"].iou, pooled["vein"].dice) == (0.0, 0.0)
+    assert evaluation.both_empty() == {"vessel": 0, "artery": 0, "vein": 0}
+
+
+def tiny_checkpoint(path, label: int | None = None):
+    """A QUICK-sized untrained U-Net saved at `path`; with `label`, its head is set to call
+    every pixel that class (zero weights, one positive bias), so its scores are known."""
+    torch.manual_seed(0)
+    model = build_model(QUICK.model).eval()
+    if label is not None:
+        head = model.segmentation_head[0]
+        with torch.no_grad():
+            head.weight.zero_()
+            head.bias.copy_(torch.eye(QUICK.model.classes)[label])
+    save_checkpoint(path, model, {"model": QUICK.model.to_dict()})
+    return model
+
+
+def test_load_model_predicts_arrays_single_images_and_lists(tmp_path) -> None:
+    network = tiny_checkpoint(tmp_path / "model.pt")
+    model = load_model(tmp_path / "model.pt", device="cpu")
+    assert model.image_size == QUICK.model.image_size and model.device.type == "cpu"
+    rng = np.random.default_rng(0)
+    stack = rng.integers(0, 256, (3, 40, 52), dtype=np.uint8)
+    labels = model.predict(stack)
+    assert labels.shape == stack.shape and labels.dtype == np.uint8 and labels.max() <= VEIN
+    np.testing.assert_array_equal(labels, predict(network, stack, image_size=64))
+    np.testing.assert_array_equal(model.predict(stack[1]), labels[1])
+    mixed = [stack[0], rng.integers(0, 256, (30, 30), dtype=np.uint8), stack[2]]
+    listed = model.predict(mixed)
+    assert [label.shape for label in listed] == [(40, 52), (30, 30), (40, 52)]
+    np.testing.assert_array_equal(listed[2], labels[2])
+    with pytest.raises(ResusError, match=r"image 1: expected an \(H, W\) uint8 image"):
+        model.predict([stack[0], stack[1].astype(np.float32)])
+    with pytest.raises(ResusError, match="checkpoint not found"):
+        load_model(tmp_path / "none.pt")
+
+
+def test_overlay_tints_the_prediction_and_outlines_the_truth() -> None:
+    image = np.full((16, 16), 100, np.uint8)
+    truth = np.zeros((16, 16), np.uint8)
+    truth[4:12, 4:12] = 1
+    predicted = np.zeros_like(truth)
+    predicted[0:3, 0:3] = ARTERY
+    rgb = overlay(image, truth, predicted)
+    assert rgb.shape == (16, 16, 3) and rgb.dtype == np.uint8
+    assert tuple(rgb[4, 8]) == TRUTH_COLOUR and tuple(rgb[8, 8]) == (100, 100, 100)
+    red = np.array(label_colour(ARTERY))
+    assert np.argmax(rgb[1, 1]) == 0 and np.all(rgb[1, 1] != 100)
+    assert np.abs(rgb[1, 1].astype(int) - red).sum() < np.abs(100 - red).sum()
+
+
+def test_evaluate_folder_writes_metrics_and_overlays(tmp_path) -> None:
+    images, masks = tmp_path / "images", tmp_path / "masks"
+    images.mkdir(), masks.mkdir()
+    vessel_pixels = 0
+    for name, shape, rows in (("a", (24, 32), 6), ("b", (20, 20), 0), ("c", (24, 32), 3)):
+        Image.fromarray(np.full(shape, 90, np.uint8)).save(images / f"{name}.png")
+        mask = np.zeros(shape, np.uint8)
+        mask[:rows, :10] = 255
+        vessel_pixels += rows * 10
+        Image.fromarray(mask).save(masks / f"{name}.png")
+    tiny_checkpoint(tmp_path / "model.pt", label=ARTERY)  # calls every pixel artery
+    model = load_model(tmp_path / "model.pt", device="cpu")
+    out = tmp_path / "out"
+    evaluation = evaluate_folder(model, read_folders(images, masks), out, progress=False)
+    all_pixels = 2 * 24 * 32 + 20 * 20
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["classes"] == ["vessel"] and metrics["images"] == 3
+    assert metrics["pooled"]["vessel"]["intersection"] == vessel_pixels
+    assert metrics["pooled"]["vessel"]["union"] == all_pixels
+    assert metrics["pooled"]["vessel"]["iou"] == pytest.approx(vessel_pixels / all_pixels)
+    assert evaluation.pooled()["vessel"].iou == pytest.approx(vessel_pixels / all_pixels)
+    assert metrics["per_image"][1] == {
+        "name": "b",
+        "vessel": {"iou": 0.0, "dice": 0.0, "intersection": 0, "union": 400},
+    }
+    assert metrics["checkpoint"] == str(tmp_path / "model.pt") and metrics["device"] == "cpu"
+    for name, shape in (("a", (24, 32)), ("b", (20, 20)), ("c", (24, 32))):
+        with Image.open(out / "overlays" / f"{name}.png") as written:
+            assert written.mode == "RGB" and written.size == (shape[1], shape[0])
