@@ -7,6 +7,8 @@
 - `report`: the experiments' report.md, results.json and figures.
 - `demo`: every stage of the pipeline on built-in defaults into one folder; `demo_report`
   renders its report.md from summary.json.
+- `realism`: simulated frames measured beside real images (grey levels, contrast, speckle),
+  with the table and figures of `resus realism`.
 """
 
 from resus.experiments.data import (
@@ -19,6 +21,17 @@ from resus.experiments.data import (
 )
 from resus.experiments.demo import DemoResult, DemoSettings, run_demo
 from resus.experiments.demo_report import render_report
+from resus.experiments.realism import (
+    ImageSet,
+    RealismComparison,
+    RealismSettings,
+    RealismStats,
+    compare,
+    measure,
+    read_image_folder,
+    read_sweep_set,
+    write_realism_report,
+)
 from resus.experiments.report import ReportFigures, write_phantom_report, write_subjects_report
 from resus.experiments.results import (
     GeneralisationCheck,
@@ -48,8 +61,12 @@ __all__ = [
     "DemoSettings",
     "ExperimentPreset",
     "GeneralisationCheck",
+    "ImageSet",
     "IoUSummary",
     "PhantomResults",
+    "RealismComparison",
+    "RealismSettings",
+    "RealismStats",
     "ReportFigures",
     "RunOptions",
     "RunRecord",
@@ -58,15 +75,20 @@ __all__ = [
     "ScanSettings",
     "SubjectData",
     "SubjectsResults",
+    "compare",
     "generalisation_check",
     "get_experiment_preset",
+    "measure",
     "prepare_scan",
     "prepare_scans",
     "prepare_subjects",
+    "read_image_folder",
+    "read_sweep_set",
     "render_report",
     "run_demo",
     "run_phantom_experiment",
     "run_subjects_experiment",
     "write_phantom_report",
+    "write_realism_report",
     "write_subjects_report",
 ]

@@ -1,0 +1,687 @@
+"""How close simulated B-mode images come to real ones: grey levels, contrast and speckle.
+
+Each side of the comparison is an `ImageSet`: 8-bit grey images with a vessel mask each, the
+labelled frames of simulated sweeps (artery or vein = vessel) or a folder of real images with
+masks (`images/NNNN.png`, `masks/NNNN.png`, 255 = lumen). `measure` turns a set into
+`RealismStats`, `compare` puts two side by side (`RealismComparison.table()`), and
+`write_realism_report` writes realism.json, realism.md and two figures.
+
+Imaged area. Scanners pad the B-mode picture with black margins (above and below a shallow
+image, beside a narrow one) and the simulator leaves columns without skin contact black. A
+border row or column is margin when at least `blank_fraction` of its pixels are exactly 0 (a
+logo or a depth scale's tick marks in the margin do not make it imaged): margins are stripped
+from each side inwards (rows first, then columns over the rows left) and the imaged area is
+the rectangle that remains. Dark tissue, even a deep shadow, is almost never exactly 0 along a
+whole line, so it stays in. Every grey-level figure is pooled over the imaged pixels of the
+whole set (each pixel counts once, so larger images weigh more).
+
+Speckle. The envelope's SNR (mean/std of the linear amplitude, 1.91 for fully developed
+speckle) cannot be measured on log-compressed grey levels without the scanner's grey map, so
+the grey levels' own statistics are measured in tissue windows (`RealismSettings.patch`
+pixels square, `vessel_margin` away from every vessel, almost unclipped, locally homogeneous):
+the within-window std of the grey levels, compared with the log-compressed Rayleigh reference
+`rayleigh_grey_std` where the dynamic range is known (the simulator's), the per-window grey
+SNR (mean/std), and the speckle grain: the full widths at half maximum of the windows' 2-D
+autocorrelation along the rows (axial) and the columns (lateral), in pixels.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from resus.errors import ResusError
+from resus.indices import evenly_spaced
+from sim.labels import VESSEL_CLASSES
+from sim.ultrasound.settings import UltrasoundSettings
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+GREY_LEVELS = 256
+REAL_CREDIT = "real: tmkand/usgra-seg (CC BY 4.0)"
+"""The real images' licence asks for this credit wherever they or figures of them are shown."""
+SIMULATOR_DYNAMIC_RANGE_DB = UltrasoundSettings().dynamic_range_db
+"""The simulator's display dynamic range: a Sweep does not record it, so the default's."""
+RAYLEIGH_LOG_STD_DB = 10.0 / math.log(10.0) * math.pi / math.sqrt(6.0)
+"""Standard deviation of log-compressed fully developed speckle: 5.57 dB.
+
+The envelope A of fully developed speckle is Rayleigh distributed, so the intensity I = A^2 is
+exponential: I = I0 E with E ~ Exp(1). Log compression shows 20 log10 A = 10 log10 I =
+10 log10 I0 + (10 / ln 10) ln E, and Var(ln E) = psi'(1) = pi^2 / 6 (the trigamma function at
+1), so the standard deviation is (10 / ln 10) pi / sqrt(6) = 5.57 dB, whatever I0 (the
+tissue's echogenicity, the gain, the TGC) is.
+"""
+QUANTILES = (0.1, 0.25, 0.5, 0.75, 0.9)
+"""Which quantiles of the per-window grey SNR are reported."""
+REALISM_JSON = "realism.json"
+REALISM_MD = "realism.md"
+SIM_VS_REAL_PNG = "sim_vs_real.png"
+HISTOGRAMS_PNG = "histograms.png"
+OUTLINE_COLOUR = "yellow"
+"""Vessel outline in the figures (the real masks do not tell artery from vein)."""
+SET_COLOURS = {"simulated": "tab:orange", "real": "tab:blue"}
+
+
+def rayleigh_grey_std(dynamic_range_db: float) -> float:
+    """Grey-level std of log-compressed fully developed speckle on a display that maps
+    `dynamic_range_db` onto 256 grey levels (255 / DR grey levels per dB): 28.4 at 50 dB."""
+    return RAYLEIGH_LOG_STD_DB * (GREY_LEVELS - 1) / dynamic_range_db
+
+
+@dataclass(frozen=True)
+class RealismSettings:
+    """How the imaged area and the speckle windows are chosen (pixels)."""
+
+    patch: int = 16
+    """Side of the windows in which the speckle's grey std and SNR are measured."""
+    grain_patch: int = 32
+    """Side of the windows whose autocorrelation gives the grain size. Each window's own mean
+    is removed, which narrows a 5-7 px wide autocorrelation by about 4 % at 32 px (by 10 % and
+    more at 16 px); a grain near the window's size cannot be measured."""
+    vessel_margin: float = 8.0
+    """Least distance of a speckle window's pixels from any vessel pixel."""
+    blank_fraction: float = 0.95
+    """Share of exactly-black pixels that makes a border row or column margin."""
+    max_clipped: float = 0.05
+    """Largest share of a window's pixels at grey 0 or 255 (clipping narrows the spread)."""
+    homogeneity: float = 1.0
+    """A window is homogeneous when its four quadrants' means span at most this many of its
+    grey std: fine fully developed speckle spans a quarter to a half of it, an edge or a
+    fascia across the window far more."""
+
+    def __post_init__(self) -> None:
+        for name in ("patch", "grain_patch"):
+            size = getattr(self, name)
+            if size < 4 or size % 2:
+                raise ResusError(f"RealismSettings.{name} must be even and >= 4, got {size}")
+        if not self.vessel_margin >= 0:
+            raise ResusError(
+                f"RealismSettings.vessel_margin must be >= 0, got {self.vessel_margin}"
+            )
+        for name in ("blank_fraction", "max_clipped"):
+            if not 0 < getattr(self, name) <= 1:
+                raise ResusError(
+                    f"RealismSettings.{name} must be in (0, 1], got {getattr(self, name)}"
+                )
+        if not self.homogeneity > 0:
+            raise ResusError(
+                f"RealismSettings.homogeneity must be positive, got {self.homogeneity}"
+            )
+
+
+@dataclass(frozen=True)
+class ImageSet:
+    """One side of the comparison: grey images, their vessel masks and where each came from."""
+
+    name: str
+    images: tuple[np.ndarray, ...]
+    """2-D uint8 grey images, any sizes."""
+    vessels: tuple[np.ndarray, ...]
+    """Bool masks of the vessel lumens, one per image, same shape."""
+    sources: tuple[str, ...]
+    """Where each image came from ("sweep.h5 #12", "0003.png")."""
+    dynamic_range_db: float | None = None
+    """The display dynamic range when it is known (simulated images), for the Rayleigh
+    reference; real images do not record it."""
+
+    def __post_init__(self) -> None:
+        if not self.images:
+            raise ResusError(f"the {self.name} image set is empty")
+        if not len(self.images) == len(self.vessels) == len(self.sources):
+            raise ResusError(
+                f"the {self.name} image set has {len(self.images)} images, "
+                f"{len(self.vessels)} masks and {len(self.sources)} sources"
+            )
+        for image, vessel, source in zip(self.images, self.vessels, self.sources, strict=True):
+            if image.dtype != np.uint8 or image.ndim != 2:
+                raise ResusError(f"{source}: expected a 2-D uint8 grey image, got {image.shape}")
+            if vessel.dtype != np.bool_ or vessel.shape != image.shape:
+                raise ResusError(f"{source}: expected a bool mask of shape {image.shape}")
+
+    def __len__(self) -> int:
+        return len(self.images)
+
+
+@dataclass(frozen=True)
+class SpeckleStats:
+    """Grey-level speckle statistics over a set's tissue windows."""
+
+    patches: int
+    """Windows measured (`RealismSettings.patch` square)."""
+    std: float
+    """Grey-level std within a window, root mean square over the windows."""
+    snr_quantiles: tuple[float, ...]
+    """Quantiles `QUANTILES` of the windows' grey SNR (mean / std)."""
+    dynamic_range_db: float | None
+    """The set's display dynamic range (`ImageSet.dynamic_range_db`; None: not known)."""
+    rayleigh_std: float | None
+    """The log-compressed Rayleigh std at that dynamic range (`rayleigh_grey_std`)."""
+    std_to_rayleigh: float | None
+    """`std / rayleigh_std`: 1 for fully developed speckle, below 1 for smoothed speckle."""
+    implied_dynamic_range_db: float
+    """The dynamic range at which fully developed speckle would show this std."""
+    grain_patches: int
+    """Windows (`RealismSettings.grain_patch` square) in the autocorrelation."""
+    grain_axial: float | None
+    """Full width at half maximum of the autocorrelation along the rows (px)."""
+    grain_lateral: float | None
+    """The same along the columns (px)."""
+
+
+@dataclass(frozen=True)
+class RealismStats:
+    """Grey levels, contrast and speckle of one image set, pooled over its imaged area."""
+
+    name: str
+    images: int
+    pixels: int
+    """Imaged pixels (the margins stripped)."""
+    histogram: tuple[float, ...]
+    """Share of the imaged pixels at each grey level 0..255 (sums to 1)."""
+    mean: float
+    median: float
+    p5: float
+    p95: float
+    tissue_mean: float
+    """Mean grey of the imaged pixels outside the vessels."""
+    lumen_mean: float | None
+    """Mean grey of the vessel pixels (None when no image shows a vessel)."""
+    lumen_tissue: float | None
+    """`lumen_mean / tissue_mean`."""
+    contrast_db: float | None
+    """20 log10(lumen_tissue): a contrast of grey levels, that is, after log compression."""
+    cnr: float | None
+    """Contrast-to-noise ratio |tissue - lumen| / sqrt(var tissue + var lumen)."""
+    speckle: SpeckleStats | None
+    """None when no window qualifies."""
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+TableRow = tuple[str, Callable[[RealismStats], float | None], int]
+
+
+def _speckle(get: Callable[[SpeckleStats], float | None]) -> Callable[[RealismStats], float | None]:
+    """A table row's getter of a speckle figure: None for a set without tissue windows."""
+    return lambda stats: None if stats.speckle is None else get(stats.speckle)
+
+
+TABLE: tuple[TableRow, ...] = (
+    ("mean grey", lambda s: s.mean, 1),
+    ("median grey", lambda s: s.median, 1),
+    ("tissue mean", lambda s: s.tissue_mean, 1),
+    ("lumen mean", lambda s: s.lumen_mean, 1),
+    ("lumen/tissue", lambda s: s.lumen_tissue, 3),
+    ("5th percentile", lambda s: s.p5, 1),
+    ("95th percentile", lambda s: s.p95, 1),
+    ("contrast (dB)", lambda s: s.contrast_db, 2),
+    ("CNR", lambda s: s.cnr, 3),
+    ("speckle std (grey)", _speckle(lambda s: s.std), 2),
+    ("speckle std / Rayleigh", _speckle(lambda s: s.std_to_rayleigh), 3),
+    ("implied dynamic range (dB)", _speckle(lambda s: s.implied_dynamic_range_db), 1),
+    ("window grey SNR, median", _speckle(lambda s: s.snr_quantiles[QUANTILES.index(0.5)]), 2),
+    ("grain axial FWHM (px)", _speckle(lambda s: s.grain_axial), 2),
+    ("grain lateral FWHM (px)", _speckle(lambda s: s.grain_lateral), 2),
+)
+"""The comparison's rows: label, the figure of a set, decimals shown. The first five are the
+issue's table; speckle rows are None for a set without tissue windows."""
+
+
+@dataclass(frozen=True)
+class RealismComparison:
+    """A simulated and a real set measured alike."""
+
+    simulated: RealismStats
+    real: RealismStats
+    settings: RealismSettings = field(default_factory=RealismSettings)
+
+    def table(self) -> list[tuple[str, float | None, float | None]]:
+        """(figure, simulated, real) for each row of `TABLE`."""
+        return [(label, get(self.simulated), get(self.real)) for label, get, _ in TABLE]
+
+    def to_dict(self) -> dict:
+        return {
+            "credit": REAL_CREDIT,
+            "settings": asdict(self.settings),
+            "table": [
+                {"figure": label, "simulated": sim, "real": real}
+                for label, sim, real in self.table()
+            ],
+            "simulated": self.simulated.to_dict(),
+            "real": self.real.to_dict(),
+        }
+
+    def to_markdown(self) -> list[str]:
+        """The table as Markdown lines."""
+        lines = ["| figure | simulated | real |", "| --- | ---: | ---: |"]
+        for (label, sim, real), (_, _, digits) in zip(self.table(), TABLE, strict=True):
+            lines.append(f"| {label} | {_shown(sim, digits)} | {_shown(real, digits)} |")
+        return lines
+
+
+def _shown(value: float | None, digits: int) -> str:
+    return "n/a" if value is None else f"{value:.{digits}f}"
+
+
+# ---- reading the two sides -------------------------------------------------------------
+
+
+def read_sweep_set(
+    paths: Sequence[str | Path],
+    frames: int | None = None,
+    dynamic_range_db: float = SIMULATOR_DYNAMIC_RANGE_DB,
+    name: str = "simulated",
+) -> ImageSet:
+    """`frames` evenly spaced labelled frames of each sweep (all of them when None); the
+    vessel mask is every class of the sweep's vocabulary that is a vessel (artery, vein)."""
+    from resus.sweep.io import SweepReader
+
+    images: list[np.ndarray] = []
+    vessels: list[np.ndarray] = []
+    sources: list[str] = []
+    for path in map(Path, paths):
+        with SweepReader(path) as reader:
+            if not reader.has_labels:
+                raise ResusError("the sweep has no labels (realism needs its vessels)", path)
+            if len(reader) == 0:
+                raise ResusError("the sweep holds no frames", path)
+            values = [v for v, label in enumerate(reader.label_names) if label in VESSEL_CLASSES]
+            for index in evenly_spaced(len(reader), frames or len(reader)):
+                frame = reader.frame(index)
+                assert frame.label is not None  # the reader has labels (checked above)
+                images.append(frame.image)
+                vessels.append(np.isin(frame.label, values))
+                sources.append(f"{path.name} #{index}")
+    return ImageSet(name, tuple(images), tuple(vessels), tuple(sources), dynamic_range_db)
+
+
+def read_image_folder(folder: str | Path, name: str = "real") -> ImageSet:
+    """Every `images/*.png` of `folder` with its `masks/` namesake (grey > 127 = vessel).
+
+    A minimal reader of its own: `resus.segmentation.folders` reads such folders for training.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ResusError("no such folder", folder)
+    image_dir, mask_dir = folder / "images", folder / "masks"
+    for sub in (image_dir, mask_dir):
+        if not sub.is_dir():
+            raise ResusError("missing: expected folders images/ and masks/ of PNGs", sub)
+    paths = sorted(image_dir.glob("*.png"))
+    if not paths:
+        raise ResusError("holds no PNG images", image_dir)
+    images: list[np.ndarray] = []
+    vessels: list[np.ndarray] = []
+    for path in paths:
+        mask_path = mask_dir / path.name
+        if not mask_path.is_file():
+            raise ResusError(f"missing: the mask of images/{path.name}", mask_path)
+        image, mask = _read_grey_png(path), _read_grey_png(mask_path)
+        if mask.shape != image.shape:
+            raise ResusError(
+                f"mask is {mask.shape[1]} x {mask.shape[0]} px, its image "
+                f"{image.shape[1]} x {image.shape[0]}",
+                mask_path,
+            )
+        images.append(image)
+        vessels.append(mask > 127)
+    return ImageSet(name, tuple(images), tuple(vessels), tuple(path.name for path in paths))
+
+
+def _read_grey_png(path: Path) -> np.ndarray:
+    """An 8-bit grey image from a grey, RGB or RGBA PNG."""
+    import cv2
+
+    from resus.acquisition.backends.video import to_grey
+
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise ResusError("not a readable PNG image", path)
+    if image.dtype != np.uint8:
+        raise ResusError(f"is a {image.dtype} image; expected 8-bit", path)
+    return to_grey(image)  # OpenCV reads colour as BGR(A), to_grey's default order
+
+
+# ---- measuring ----------------------------------------------------------------------------
+
+
+def imaged_region(image: np.ndarray, blank_fraction: float = 0.95) -> tuple[slice, slice]:
+    """(rows, cols) slices of the imaged rectangle: border rows, then border columns, with at
+    least `blank_fraction` of their pixels exactly 0 stripped from each side inwards."""
+    black = np.asarray(image) == 0
+    rows = _inner_span(black.mean(axis=1) >= blank_fraction)
+    if rows.stop == rows.start:
+        return rows, rows
+    return rows, _inner_span(black[rows].mean(axis=0) >= blank_fraction)
+
+
+def _inner_span(blank: np.ndarray) -> slice:
+    """The lines from the first to the last that is not blank (empty when all are)."""
+    kept = np.flatnonzero(~blank)
+    return slice(int(kept[0]), int(kept[-1]) + 1) if kept.size else slice(0, 0)
+
+
+def _blocks(array: np.ndarray, size: int) -> np.ndarray:
+    """(n, size, size) non-overlapping tiles of a 2-D array, row by row from its corner."""
+    rows, cols = array.shape[0] // size, array.shape[1] // size
+    tiles = array[: rows * size, : cols * size].reshape(rows, size, cols, size)
+    return tiles.swapaxes(1, 2).reshape(-1, size, size)
+
+
+def tissue_windows(
+    image: np.ndarray, usable: np.ndarray, size: int, settings: RealismSettings
+) -> np.ndarray:
+    """(n, size, size) float tiles of `image` that lie wholly in `usable`, have at most
+    `max_clipped` of their pixels at 0 or 255 and are homogeneous (`homogeneity`)."""
+    keep = _blocks(usable, size).all(axis=(1, 2))
+    tiles = _blocks(image, size)[keep].astype(np.float64)
+    clipped = ((tiles == 0) | (tiles == GREY_LEVELS - 1)).mean(axis=(1, 2))
+    half = size // 2
+    quadrants = tiles.reshape(-1, 2, half, 2, half).mean(axis=(2, 4)).reshape(-1, 4)
+    spread = quadrants.max(axis=1) - quadrants.min(axis=1)
+    std = tiles.std(axis=(1, 2), ddof=1)
+    good = (clipped <= settings.max_clipped) & (std > 0) & (spread <= settings.homogeneity * std)
+    return tiles[good]
+
+
+class _Accumulator:
+    """Running sums over a set's images: histograms of tissue and lumen grey levels, the
+    speckle windows' means and variances, and the sum of their autocorrelations (each
+    scaled to 1 at lag 0, so that every window weighs the same)."""
+
+    def __init__(self, settings: RealismSettings) -> None:
+        self.settings = settings
+        self.tissue = np.zeros(GREY_LEVELS, np.int64)
+        self.lumen = np.zeros(GREY_LEVELS, np.int64)
+        self.window_means: list[np.ndarray] = []
+        self.window_variances: list[np.ndarray] = []
+        size = settings.grain_patch
+        self.correlation = np.zeros((2 * size, 2 * size))
+        self.grain_patches = 0
+
+    def add(self, image: np.ndarray, vessel: np.ndarray) -> None:
+        from scipy import ndimage
+
+        region = imaged_region(image, self.settings.blank_fraction)
+        image, vessel = image[region], vessel[region]
+        self.tissue += np.bincount(image[~vessel], minlength=GREY_LEVELS)
+        self.lumen += np.bincount(image[vessel], minlength=GREY_LEVELS)
+        usable = ~vessel
+        if vessel.any() and self.settings.vessel_margin > 0:
+            usable = ndimage.distance_transform_edt(usable) >= self.settings.vessel_margin
+        windows = tissue_windows(image, usable, self.settings.patch, self.settings)
+        self.window_means.append(windows.mean(axis=(1, 2)))
+        self.window_variances.append(windows.var(axis=(1, 2), ddof=1))
+        grains = tissue_windows(image, usable, self.settings.grain_patch, self.settings)
+        if len(grains):
+            centred = grains - grains.mean(axis=(1, 2), keepdims=True)
+            spectrum = np.fft.rfft2(centred, s=self.correlation.shape)
+            correlations = np.fft.irfft2(np.abs(spectrum) ** 2, s=self.correlation.shape)
+            self.correlation += (correlations / correlations[:, :1, :1]).sum(axis=0)
+            self.grain_patches += len(grains)
+
+    def speckle(self, dynamic_range_db: float | None) -> SpeckleStats | None:
+        means = np.concatenate(self.window_means)
+        variances = np.concatenate(self.window_variances)
+        if not len(means):
+            return None
+        std = float(np.sqrt(variances.mean()))
+        rayleigh = None if dynamic_range_db is None else rayleigh_grey_std(dynamic_range_db)
+        axial, lateral = self._grain()
+        return SpeckleStats(
+            patches=len(means),
+            std=std,
+            snr_quantiles=tuple(
+                float(q) for q in np.quantile(means / np.sqrt(variances), QUANTILES)
+            ),
+            dynamic_range_db=dynamic_range_db,
+            rayleigh_std=rayleigh,
+            std_to_rayleigh=None if rayleigh is None else std / rayleigh,
+            implied_dynamic_range_db=RAYLEIGH_LOG_STD_DB * (GREY_LEVELS - 1) / std,
+            grain_patches=self.grain_patches,
+            grain_axial=axial,
+            grain_lateral=lateral,
+        )
+
+    def _grain(self) -> tuple[float | None, float | None]:
+        """Axial and lateral FWHM (px) of the windows' mean autocorrelation, each lag's sum
+        divided by the pixel pairs at that lag (the unbiased estimate)."""
+        if not self.grain_patches:
+            return None, None
+        size = self.settings.grain_patch
+        overlap = size - np.arange(size)
+        axial = self.correlation[:size, 0] / overlap
+        lateral = self.correlation[0, :size] / overlap
+        return (
+            full_width_half_maximum(axial / axial[0]),
+            full_width_half_maximum(lateral / lateral[0]),
+        )
+
+
+def full_width_half_maximum(profile: np.ndarray) -> float | None:
+    """Twice the lag at which a symmetric profile, given from lag 0 (= 1) on, first falls below
+    one half, linearly interpolated; None when it never does."""
+    below = np.flatnonzero(profile < 0.5)
+    if not below.size:
+        return None
+    k = int(below[0])
+    high, low = profile[k - 1], profile[k]
+    return float(2.0 * (k - 1 + (high - 0.5) / (high - low)))
+
+
+def _quantile(counts: np.ndarray, q: float) -> float:
+    """The lowest grey level at which the cumulative share of `counts` reaches `q`."""
+    return float(np.searchsorted(np.cumsum(counts), q * counts.sum()))
+
+
+def _moments(counts: np.ndarray) -> tuple[float, float]:
+    """Mean and variance of the grey levels counted in `counts`."""
+    levels = np.arange(GREY_LEVELS)
+    mean = float((counts * levels).sum() / counts.sum())
+    return mean, float((counts * (levels - mean) ** 2).sum() / counts.sum())
+
+
+def measure(images: ImageSet, settings: RealismSettings | None = None) -> RealismStats:
+    """Grey levels, contrast and speckle of `images` (see the module's docstring)."""
+    settings = settings or RealismSettings()
+    sums = _Accumulator(settings)
+    for image, vessel in zip(images.images, images.vessels, strict=True):
+        sums.add(image, vessel)
+    counts = sums.tissue + sums.lumen
+    if not counts.sum() or not sums.tissue.sum():
+        raise ResusError(f"the {images.name} images show no imaged tissue (all black?)")
+    mean, _ = _moments(counts)
+    tissue_mean, tissue_variance = _moments(sums.tissue)
+    lumen_mean = ratio = contrast = cnr = None
+    if sums.lumen.sum():
+        lumen_mean, lumen_variance = _moments(sums.lumen)
+        ratio = lumen_mean / tissue_mean
+        contrast = 20.0 * math.log10(ratio) if ratio > 0 else None
+        noise = math.sqrt(tissue_variance + lumen_variance)
+        cnr = abs(tissue_mean - lumen_mean) / noise if noise > 0 else None
+    return RealismStats(
+        name=images.name,
+        images=len(images),
+        pixels=int(counts.sum()),
+        histogram=tuple(float(c) for c in counts / counts.sum()),
+        mean=mean,
+        median=_quantile(counts, 0.5),
+        p5=_quantile(counts, 0.05),
+        p95=_quantile(counts, 0.95),
+        tissue_mean=tissue_mean,
+        lumen_mean=lumen_mean,
+        lumen_tissue=ratio,
+        contrast_db=contrast,
+        cnr=cnr,
+        speckle=sums.speckle(images.dynamic_range_db),
+    )
+
+
+def compare(
+    simulated: ImageSet, real: ImageSet, settings: RealismSettings | None = None
+) -> RealismComparison:
+    """Both sets measured with the same settings."""
+    settings = settings or RealismSettings()
+    return RealismComparison(measure(simulated, settings), measure(real, settings), settings)
+
+
+# ---- figures and the report ----------------------------------------------------------------
+
+
+def save_sim_vs_real_png(
+    path: str | Path,
+    simulated: ImageSet,
+    real: ImageSet,
+    count: int = 4,
+    settings: RealismSettings | None = None,
+) -> Path:
+    """`count` simulated images (top row) over `count` real ones with a vessel (bottom row),
+    evenly chosen, each cut to its imaged area with its vessels outlined; credited."""
+    from matplotlib.figure import Figure
+
+    blank_fraction = (settings or RealismSettings()).blank_fraction
+    rows = [(simulated, _with_vessels(simulated, count)), (real, _with_vessels(real, count))]
+    columns = max(len(indices) for _, indices in rows)
+    figure = Figure(figsize=(3.0 * columns, 5.9))
+    panels = figure.subplots(2, columns, squeeze=False)
+    for row, (images, indices) in zip(panels, rows, strict=True):
+        for panel in row:
+            panel.set_axis_off()
+        for panel, index in zip(row, indices, strict=False):
+            region = imaged_region(images.images[index], blank_fraction)
+            panel.imshow(images.images[index][region], cmap="gray", vmin=0, vmax=255)
+            vessel = images.vessels[index][region]
+            if vessel.any():
+                panel.contour(vessel, levels=[0.5], colors=OUTLINE_COLOUR, linewidths=0.8)
+            panel.set_title(f"{images.name}: {images.sources[index]}", fontsize=8)
+    figure.suptitle("simulated (top) and real (bottom) B-mode images, vessel lumens outlined")
+    figure.text(0.5, 0.01, REAL_CREDIT, ha="center", fontsize=9)
+    figure.tight_layout(rect=(0, 0.03, 1, 1))
+    return _save(figure, Path(path), 90)
+
+
+def _with_vessels(images: ImageSet, count: int) -> list[int]:
+    """`count` evenly spaced indices of the images that show a vessel (of all, if none do)."""
+    showing = [i for i, vessel in enumerate(images.vessels) if vessel.any()] or list(
+        range(len(images))
+    )
+    return [showing[i] for i in evenly_spaced(len(showing), count)]
+
+
+def save_histograms_png(path: str | Path, comparison: RealismComparison) -> Path:
+    """Both sets' grey-level histograms overlaid, and bars of the table's grey figures and of
+    the lumen/tissue ratio; credited."""
+    from matplotlib.figure import Figure
+
+    sets = (comparison.simulated, comparison.real)
+    figure = Figure(figsize=(15, 4.4))
+    histogram, greys, ratios = figure.subplots(1, 3, width_ratios=(2.2, 2.0, 0.9))
+    for stats in sets:
+        colour = SET_COLOURS.get(stats.name)
+        label = f"{stats.name} ({stats.images} images)"
+        histogram.step(
+            np.arange(GREY_LEVELS), stats.histogram, where="mid", color=colour, label=label
+        )
+        histogram.axvline(stats.mean, color=colour, linestyle="--", linewidth=0.8)
+    histogram.set_xlim(0, GREY_LEVELS - 1)
+    histogram.set_xlabel("grey level (imaged area)")
+    histogram.set_ylabel("share of pixels")
+    histogram.set_title("grey-level histograms (dashed: means)")
+    histogram.legend()
+    figures = [(label, get) for label, get, _ in TABLE[:4]]
+    width = 0.38
+    for offset, stats in zip((-width / 2, width / 2), sets, strict=True):
+        values = [get(stats) or 0.0 for _, get in figures]
+        colour = SET_COLOURS.get(stats.name)
+        greys.bar(np.arange(len(figures)) + offset, values, width, color=colour, label=stats.name)
+        ratios.bar(offset, stats.lumen_tissue or 0.0, width, color=colour, label=stats.name)
+    greys.set_xticks(np.arange(len(figures)), [label for label, _ in figures])
+    greys.set_ylim(0, GREY_LEVELS - 1)
+    greys.set_ylabel("grey level")
+    greys.set_title("grey levels")
+    greys.legend()
+    ratios.set_xticks([0], ["lumen/tissue"])
+    ratios.set_ylim(0, 1)
+    ratios.set_title("lumen/tissue mean")
+    figure.suptitle(f"simulated vs real grey levels   ({REAL_CREDIT})")
+    figure.tight_layout()
+    return _save(figure, Path(path), 90)
+
+
+def _save(figure: Figure, path: Path, dpi: int) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path, dpi=dpi)
+    return path
+
+
+def write_realism_report(
+    out: str | Path,
+    simulated: ImageSet,
+    real: ImageSet,
+    settings: RealismSettings | None = None,
+    sources: Mapping[str, object] | None = None,
+) -> RealismComparison:
+    """Measure both sets and write realism.json, realism.md, sim_vs_real.png and
+    histograms.png into `out`; `sources` (what was read) goes into both texts."""
+    out = Path(out)
+    comparison = compare(simulated, real, settings)
+    summary = {"sources": dict(sources or {}), **comparison.to_dict()}
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / REALISM_JSON).write_text(json.dumps(summary, indent=2) + "\n")
+        save_sim_vs_real_png(out / SIM_VS_REAL_PNG, simulated, real, settings=comparison.settings)
+        save_histograms_png(out / HISTOGRAMS_PNG, comparison)
+        lines = _report_lines(comparison, summary["sources"])
+        (out / REALISM_MD).write_text("\n".join(lines) + "\n")
+    except OSError as error:
+        raise ResusError(
+            f"cannot write the report there ({error.strerror or error})", out
+        ) from None
+    return comparison
+
+
+def _dynamic_range(stats: RealismStats) -> str:
+    """The set's display dynamic range as the report words it."""
+    speckle = stats.speckle
+    if speckle is None or speckle.dynamic_range_db is None:
+        return "unknown"
+    return f"{speckle.dynamic_range_db:g} dB"
+
+
+def _report_lines(comparison: RealismComparison, sources: Mapping[str, object]) -> list[str]:
+    settings = comparison.settings
+    sim, real = comparison.simulated, comparison.real
+    return [
+        "# Realism: simulated against real B-mode images",
+        "",
+        f"Simulated: {sim.images} frames ({sim.pixels:,} imaged pixels); real: {real.images} "
+        f"images ({real.pixels:,} imaged pixels).",
+        "",
+        f"Credit: {REAL_CREDIT}.",
+        "",
+        *comparison.to_markdown(),
+        "",
+        "Grey levels are pooled over the imaged area of every image (border rows and columns "
+        f"with at least {settings.blank_fraction:.0%} black pixels stripped); lumen = vessel "
+        "pixels, tissue = the rest of the imaged area. Speckle: grey levels in "
+        f"{settings.patch} px tissue windows at least {settings.vessel_margin:g} px from a "
+        "vessel, homogeneous and unclipped (the Rayleigh reference is the 5.57 dB std of "
+        f"log-compressed speckle at the simulated display's {_dynamic_range(sim)} dynamic "
+        "range; real images do not record theirs); grain: autocorrelation FWHM over "
+        f"{settings.grain_patch} px windows, in each set's own pixels.",
+        "",
+        f"![simulated and real images]({SIM_VS_REAL_PNG})",
+        f"![grey-level histograms]({HISTOGRAMS_PNG})",
+        "",
+        "## Sources",
+        "",
+        *(f"- {key}: {value}" for key, value in sources.items()),
+    ]

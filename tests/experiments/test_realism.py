@@ -1,0 +1,271 @@
+"""The realism statistics against independent computations on arrays with known answers, and
+the readers of both sides (sweeps with labels, folders of PNGs with masks)."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import cv2
+import numpy as np
+import pytest
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from resus.errors import ResusError
+from resus.experiments.realism import (
+    RAYLEIGH_LOG_STD_DB,
+    ImageSet,
+    RealismSettings,
+    compare,
+    full_width_half_maximum,
+    imaged_region,
+    measure,
+    rayleigh_grey_std,
+    read_image_folder,
+    read_sweep_set,
+)
+from resus.sweep.io import write_sweep
+from sim.labels import ARTERY, VEIN
+
+
+def one_image(image: np.ndarray, vessel: np.ndarray | None = None, **kwargs) -> ImageSet:
+    vessel = np.zeros(image.shape, bool) if vessel is None else vessel
+    return ImageSet("test", (image,), (vessel,), ("test.png",), **kwargs)
+
+
+def disc(shape: tuple[int, int], centre: tuple[float, float], radius: float) -> np.ndarray:
+    rows, cols = np.indices(shape)
+    return (rows - centre[0]) ** 2 + (cols - centre[1]) ** 2 <= radius**2
+
+
+def log_compressed_rayleigh(
+    shape: tuple[int, int], dynamic_range_db: float, mean_grey: float, seed: int
+) -> np.ndarray:
+    """Fully developed speckle: Rayleigh amplitudes, 20 log10 at 255 / DR grey per dB."""
+    amplitude = np.random.default_rng(seed).rayleigh(size=shape)
+    decibels = 20.0 * np.log10(amplitude)
+    grey = mean_grey + (decibels - decibels.mean()) * 255.0 / dynamic_range_db
+    return np.clip(np.round(grey), 0, 255).astype(np.uint8)
+
+
+def test_constant_tissue_and_lumen_give_the_exact_ratio_and_contrast() -> None:
+    image = np.full((64, 64), 100, np.uint8)
+    lumen = disc(image.shape, (32, 32), 10)
+    image[lumen] = 25
+    stats = measure(one_image(image, lumen))
+    assert stats.tissue_mean == 100 and stats.lumen_mean == 25
+    assert stats.lumen_tissue == pytest.approx(0.25)
+    assert stats.contrast_db == pytest.approx(-12.0412, abs=1e-4)
+    assert stats.cnr is None  # no noise: the contrast-to-noise ratio is not defined
+    assert stats.speckle is None  # no window has any spread
+    assert stats.mean == pytest.approx(image.mean())
+
+
+def test_grey_figures_match_numpy_over_the_imaged_area() -> None:
+    rng = np.random.default_rng(3)
+    inner = rng.integers(1, 256, (50, 70)).astype(np.uint8)
+    lumen = disc(inner.shape, (25, 20), 8)
+    inner[lumen] //= 4
+    image = np.zeros((80, 90), np.uint8)  # black padding on every side
+    image[10:60, 5:75] = inner
+    vessel = np.zeros(image.shape, bool)
+    vessel[10:60, 5:75] = lumen
+    stats = measure(one_image(image, vessel))
+    pixels = inner.ravel()
+    assert stats.pixels == inner.size
+    assert stats.mean == pytest.approx(pixels.mean())
+    for name, q in (("median", 50), ("p5", 5), ("p95", 95)):
+        assert getattr(stats, name) == np.percentile(pixels, q, method="inverted_cdf"), name
+    np.testing.assert_allclose(stats.histogram, np.bincount(pixels, minlength=256) / pixels.size)
+    tissue, blood = inner[~lumen].astype(float), inner[lumen].astype(float)
+    assert stats.tissue_mean == pytest.approx(tissue.mean())
+    assert stats.lumen_mean == pytest.approx(blood.mean())
+    expected_cnr = abs(tissue.mean() - blood.mean()) / math.hypot(tissue.std(), blood.std())
+    assert stats.cnr == pytest.approx(expected_cnr)
+    assert stats.contrast_db == pytest.approx(20 * math.log10(blood.mean() / tissue.mean()))
+
+
+def test_black_margins_are_stripped_but_dark_tissue_and_marks_are_not() -> None:
+    image = np.zeros((100, 120), np.uint8)
+    image[20:90, 15:110] = 2  # very dark tissue is still imaged
+    image[30:40, 50:60] = 0  # and so is a black spot inside it
+    image[95, 3] = image[5, 60] = 200  # a tick mark and a logo dot in the margins
+    rows, cols = imaged_region(image)
+    assert (rows, cols) == (slice(20, 90), slice(15, 110))
+    assert measure(one_image(image)).pixels == 70 * 95
+    assert imaged_region(np.zeros((8, 8), np.uint8)) == (slice(0, 0), slice(0, 0))
+
+
+def test_an_all_black_set_is_refused() -> None:
+    with pytest.raises(ResusError, match="no imaged tissue"):
+        measure(one_image(np.zeros((32, 32), np.uint8)))
+
+
+def test_the_rayleigh_constant_is_the_std_of_log_compressed_rayleigh_samples() -> None:
+    samples = np.random.default_rng(0).rayleigh(size=1_000_000)
+    assert np.std(20 * np.log10(samples)) == pytest.approx(RAYLEIGH_LOG_STD_DB, rel=0.005)
+    assert round(RAYLEIGH_LOG_STD_DB, 2) == 5.57
+    assert rayleigh_grey_std(50.0) == pytest.approx(5.5697 * 255 / 50, rel=1e-4)
+
+
+def test_log_compressed_rayleigh_speckle_shows_the_analytic_grey_std() -> None:
+    dynamic_range = 60.0
+    image = log_compressed_rayleigh((512, 512), dynamic_range, 128.0, seed=1)
+    stats = measure(one_image(image, dynamic_range_db=dynamic_range))
+    speckle = stats.speckle
+    assert speckle is not None and speckle.patches > 900  # most of the 1024 windows pass
+    assert speckle.std == pytest.approx(rayleigh_grey_std(dynamic_range), rel=0.03)
+    assert speckle.std_to_rayleigh == pytest.approx(1.0, rel=0.03)
+    assert speckle.implied_dynamic_range_db == pytest.approx(dynamic_range, rel=0.03)
+    assert speckle.snr_quantiles[2] == pytest.approx(128.0 / speckle.std, rel=0.05)
+    assert measure(one_image(image)).speckle.rayleigh_std is None  # dynamic range unknown
+
+
+def test_speckle_windows_keep_away_from_vessels() -> None:
+    image = log_compressed_rayleigh((256, 256), 60.0, 128.0, seed=2)
+    vessel = disc(image.shape, (128, 128), 40)
+    plain = measure(one_image(image)).speckle
+    around = measure(one_image(image, vessel)).speckle
+    # the 16 px tiles whose every pixel lies at least 8 px from every vessel pixel
+    tree = cKDTree(np.argwhere(vessel))
+    tiles = np.indices((16, 16)).reshape(2, -1).T * 16
+    offsets = np.indices((16, 16)).reshape(2, -1).T
+    free = sum(tree.query(corner + offsets)[0].min() >= 8 for corner in tiles)
+    assert plain is not None and around is not None
+    assert 0.9 * 256 <= plain.patches <= 256
+    assert 0.9 * free <= around.patches <= free < 256
+
+
+def test_clipped_and_inhomogeneous_windows_are_left_out() -> None:
+    image = log_compressed_rayleigh((256, 256), 60.0, 100.0, seed=3)
+    plain = measure(one_image(image)).speckle
+    lined = image.copy()
+    lined[::32] = lined[1::32] = 255  # a saturated line through every other row of windows
+    stepped = image.copy()
+    for left in range(16, 256, 32):  # an edge through the middle of every other column
+        stepped[:, left + 8 : left + 16] += 60
+    assert plain is not None and plain.patches > 0.9 * 256
+    for changed in (lined, stepped):
+        speckle = measure(one_image(changed)).speckle
+        assert speckle is not None and speckle.patches < 0.55 * 256
+
+
+def test_grain_of_blurred_white_noise_is_the_blur_width() -> None:
+    """White noise blurred by a Gaussian of std s has a Gaussian autocorrelation of std
+    s sqrt(2): its FWHM is 2 sqrt(2 ln 2) sqrt(2) s = 3.33 s. Removing each window's mean
+    narrows it by about 4 % (`RealismSettings.grain_patch`), hence the tolerance."""
+    sigma_rows, sigma_cols = 1.5, 2.0
+    noise = np.random.default_rng(4).normal(size=(512, 512))
+    field = ndimage.gaussian_filter(noise, (sigma_rows, sigma_cols))
+    image = np.clip(np.round(128 + field * 20 / field.std()), 0, 255).astype(np.uint8)
+    speckle = measure(one_image(image)).speckle
+    factor = 2 * math.sqrt(2 * math.log(2)) * math.sqrt(2)
+    assert speckle is not None and speckle.grain_patches > 150
+    assert speckle.grain_axial == pytest.approx(factor * sigma_rows, rel=0.08)
+    assert speckle.grain_lateral == pytest.approx(factor * sigma_cols, rel=0.08)
+
+
+def test_full_width_half_maximum_interpolates() -> None:
+    assert full_width_half_maximum(np.array([1.0, 0.75, 0.25, 0.0])) == pytest.approx(3.0)
+    assert full_width_half_maximum(np.array([1.0, 0.9, 0.8])) is None
+
+
+def test_settings_are_checked() -> None:
+    with pytest.raises(ResusError, match=r"RealismSettings\.patch"):
+        RealismSettings(patch=7)
+    with pytest.raises(ResusError, match=r"RealismSettings\.blank_fraction"):
+        RealismSettings(blank_fraction=0)
+    with pytest.raises(ResusError, match=r"RealismSettings\.homogeneity"):
+        RealismSettings(homogeneity=-1)
+
+
+def test_comparison_table_starts_with_the_issue_figures() -> None:
+    image = log_compressed_rayleigh((64, 64), 50.0, 120.0, seed=5)
+    vessel = disc(image.shape, (32, 32), 8)
+    comparison = compare(one_image(image, vessel), one_image(image // 3, vessel))
+    labels = [label for label, _, _ in comparison.table()]
+    assert labels[:5] == ["mean grey", "median grey", "tissue mean", "lumen mean", "lumen/tissue"]
+    table = {label: (sim, real) for label, sim, real in comparison.table()}
+    assert table["mean grey"] == (comparison.simulated.mean, comparison.real.mean)
+    summary = comparison.to_dict()
+    assert "tmkand/usgra-seg" in summary["credit"]
+    assert len(summary["simulated"]["histogram"]) == 256
+    assert "| lumen/tissue |" in "\n".join(comparison.to_markdown())
+
+
+def write_png(path, image: np.ndarray) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    assert cv2.imwrite(str(path), image)
+
+
+def test_image_folder_reads_grey_and_colour_pngs_with_masks(tmp_path) -> None:
+    grey = np.full((40, 50), 60, np.uint8)
+    colour = np.zeros((30, 20, 3), np.uint8)
+    colour[..., 1] = 90  # BGR, as OpenCV writes: pure green
+    mask = np.zeros((40, 50), np.uint8)
+    mask[5:10, 5:10] = 255
+    write_png(tmp_path / "images" / "0000.png", grey)
+    write_png(tmp_path / "images" / "0001.png", colour)
+    write_png(tmp_path / "masks" / "0000.png", mask)
+    write_png(tmp_path / "masks" / "0001.png", np.zeros((30, 20), np.uint8))
+    images = read_image_folder(tmp_path)
+    assert images.sources == ("0000.png", "0001.png") and images.dynamic_range_db is None
+    assert images.images[1].shape == (30, 20)
+    assert images.images[1][0, 0] == round(0.587 * 90)  # the luma of green
+    assert images.vessels[0].sum() == 25 and not images.vessels[1].any()
+
+
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        ("no folder", "no such folder"),
+        ("no masks folder", "masks: missing"),
+        ("no mask", "0001.png: missing: the mask of images/0001.png"),
+        ("mask size", "mask is 9 x 8 px, its image 10 x 8"),
+        ("16-bit", "is a uint16 image; expected 8-bit"),
+        ("not a png", "not a readable PNG image"),
+        ("empty", "holds no PNG images"),
+    ],
+)
+def test_image_folder_errors_name_the_file(tmp_path, damage: str, message: str) -> None:
+    root = tmp_path / "real"
+    for name in ("0000.png", "0001.png"):
+        write_png(root / "images" / name, np.full((8, 10), 50, np.uint8))
+        write_png(root / "masks" / name, np.zeros((8, 10), np.uint8))
+    if damage == "no folder":
+        root = tmp_path / "nowhere"
+    elif damage == "no masks folder":
+        for path in (root / "masks").iterdir():
+            path.unlink()
+        (root / "masks").rmdir()
+    elif damage == "no mask":
+        (root / "masks" / "0001.png").unlink()
+    elif damage == "mask size":
+        write_png(root / "masks" / "0001.png", np.zeros((8, 9), np.uint8))
+    elif damage == "16-bit":
+        write_png(root / "images" / "0001.png", np.full((8, 10), 5000, np.uint16))
+    elif damage == "not a png":
+        (root / "images" / "0001.png").write_text("not an image")
+    elif damage == "empty":
+        for path in (root / "images").iterdir():
+            path.unlink()
+    with pytest.raises(ResusError, match=re.escape(message)):
+        read_image_folder(root)
+
+
+def test_sweep_set_reads_evenly_spaced_frames_and_artery_and_vein(tmp_path) -> None:
+    from sweep_samples import sample_sweep
+
+    sweep = sample_sweep(n=9, rows=24, cols=32)
+    write_sweep(tmp_path / "s.h5", sweep)
+    images = read_sweep_set([tmp_path / "s.h5"], frames=3)
+    assert images.sources == ("s.h5 #0", "s.h5 #4", "s.h5 #8")
+    assert images.dynamic_range_db == 50.0  # the simulator's default display
+    np.testing.assert_array_equal(images.images[1], sweep.frames[4])
+    assert sweep.labels is not None
+    np.testing.assert_array_equal(images.vessels[2], np.isin(sweep.labels[8], (ARTERY, VEIN)))
+    unlabelled = sample_sweep(n=3, optional=False)
+    write_sweep(tmp_path / "u.h5", unlabelled)
+    with pytest.raises(ResusError, match=r"u\.h5: the sweep has no labels"):
+        read_sweep_set([tmp_path / "u.h5"])
