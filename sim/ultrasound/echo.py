@@ -14,7 +14,7 @@
 electronic noise (a hash of the pixel and a frame key, so a given pose always gives the same
 image); time-gain compensation; envelope; log compression to grey levels; the grey map;
 black where the column has no skin contact or the pixel lies in air, with the label image
-masked alike.
+masked alike. `smooth_within` then applies the scanner's speckle reduction, if any.
 
 Arrays indexed `[col, row]` are column-major scan lines: `material[col * rows + row]` is the
 sample of pixel (col, row).
@@ -303,6 +303,46 @@ def form_image(
             visible = material[first + row] >= 0
             image[col, row] = grey_map[np.uint8(grey + np.float32(0.5))] if visible else 0
             label_image[col, row] = label[first + row] if visible else 0
+
+
+@numba.njit(parallel=True, fastmath=True, cache=True)
+def smooth_within(
+    image: np.ndarray,
+    imaged: np.ndarray,
+    kernel_rows: np.ndarray,
+    kernel_cols: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """`out` = `image` (rows, cols uint8) smoothed by the separable kernels over the `imaged`
+    pixels only (normalised convolution, so black margins do not bleed in); 0 elsewhere."""
+    rows, cols = image.shape
+    down = np.zeros((rows, cols), dtype=np.float32)
+    down_weight = np.zeros((rows, cols), dtype=np.float32)
+    half_rows = kernel_rows.shape[0] // 2
+    half_cols = kernel_cols.shape[0] // 2
+    for row in numba.prange(rows):
+        for t in range(kernel_rows.shape[0]):
+            source = row + t - half_rows
+            if 0 <= source < rows:
+                weight = kernel_rows[t]
+                for col in range(cols):
+                    if imaged[source, col]:
+                        down[row, col] += weight * np.float32(image[source, col])
+                        down_weight[row, col] += weight
+    for row in numba.prange(rows):
+        for col in range(cols):
+            if not imaged[row, col]:
+                out[row, col] = 0
+                continue
+            total = np.float32(0.0)
+            weight_sum = np.float32(0.0)
+            for t in range(
+                max(0, half_cols - col), min(kernel_cols.shape[0], cols - col + half_cols)
+            ):
+                total += kernel_cols[t] * down[row, col + t - half_cols]
+                weight_sum += kernel_cols[t] * down_weight[row, col + t - half_cols]
+            value = total / weight_sum if weight_sum > 0 else np.float32(0.0)
+            out[row, col] = np.uint8(min(value + np.float32(0.5), np.float32(255.0)))
 
 
 @numba.njit(cache=True)

@@ -1,10 +1,11 @@
 """Scanner presets: what makes two machines' images of the same tissue look different.
 
 A `ScannerPreset` names the knobs a sonographer or a vendor sets (centre frequency, depth,
-focus, gain, TGC sliders, dynamic range, grey map, clutter, noise) and turns them into the
-simulator's `LinearProbe` and `UltrasoundSettings`. Frequency carries its physics with it:
-the pulse shortens (axial resolution ~ c / bandwidth), the beam narrows (lateral FWHM ~
-lambda times the F-number), so speckle grows finer, and attenuation in dB grows with it.
+focus, gain, TGC sliders, dynamic range, grey map, speckle reduction, clutter, noise) and
+turns them into the simulator's `LinearProbe` and `UltrasoundSettings`. Frequency carries
+its physics with it: the pulse shortens (axial resolution ~ c / bandwidth), the beam narrows
+(lateral FWHM ~ lambda times the F-number), so speckle grows finer, and attenuation in dB
+grows with it.
 
 `random_preset(seed)` draws every knob from the ranges clinical linear-array presets span, so
 a training set simulated under many presets does not teach a network one machine's look.
@@ -45,6 +46,8 @@ class ScannerPreset:
     dynamic_range_db: float = 60.0
     tgc_sliders_db: tuple[float, ...] = ()
     grey_gamma: float = 1.5
+    speckle_smoothing: float = 0.15e-3
+    """Gaussian sigma (m) of the speckle-reduction filter."""
     clutter_db: float | None = -10.0
     electronic_noise_db: float = -12.0
 
@@ -89,6 +92,7 @@ class ScannerPreset:
             dynamic_range_db=self.dynamic_range_db,
             tgc_sliders_db=self.tgc_sliders_db,
             grey_gamma=self.grey_gamma,
+            speckle_smoothing=self.speckle_smoothing,
             clutter_db=self.clutter_db,
             electronic_noise_db=self.electronic_noise_db,
         )
@@ -127,6 +131,7 @@ PRESETS: dict[str, ScannerPreset] = {
             gain_db=32.0,
             dynamic_range_db=50.0,
             grey_gamma=1.0,
+            speckle_smoothing=0.0,
             clutter_db=None,
         ),
     )
@@ -144,6 +149,7 @@ RANDOM_RANGES: dict[str, tuple[float, float]] = {
     "dynamic_range_db": (48.0, 72.0),
     "tgc_slider_db": (-4.0, 4.0),
     "grey_gamma": (1.1, 2.2),
+    "speckle_smoothing": (0.0, 0.3e-3),
     "clutter_db": (-22.0, -8.0),
     "electronic_noise_db": (-24.0, -10.0),
 }
@@ -167,6 +173,7 @@ def random_preset(seed: int) -> ScannerPreset:
         dynamic_range_db=draw["dynamic_range_db"],
         tgc_sliders_db=tuple(float(value) for value in sliders),
         grey_gamma=draw["grey_gamma"],
+        speckle_smoothing=draw["speckle_smoothing"],
         clutter_db=draw["clutter_db"],
         electronic_noise_db=draw["electronic_noise_db"],
     )

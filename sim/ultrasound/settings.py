@@ -62,6 +62,10 @@ class UltrasoundSettings:
     changes tissue; None: no clutter."""
     clutter_width: float = 10.0e-3
     """Lateral width (m) of the tissue the side lobes see: about the active aperture."""
+    speckle_smoothing: float = 0.0
+    """Speckle reduction: Gaussian standard deviation (m) of the scanner's smoothing of the
+    log-compressed image, as its speckle-reduction filter and the export's interpolation do
+    (real exports show grains several pixels wide). 0: none."""
     grey_gamma: float = 1.0
     """Grey map: a log-compressed level g shows as `255 * (g / 255) ** grey_gamma`; above 1
     darkens the mid-greys, as vascular presets do, and keeps black and white."""
@@ -90,7 +94,7 @@ class UltrasoundSettings:
         tgc = self.tgc_attenuation
         if tgc is not None and not tgc >= 0:
             raise ValueError(f"ultrasound setting tgc_attenuation must be non-negative, got {tgc}")
-        for name in ("specular_gain", "contact_tolerance"):
+        for name in ("specular_gain", "contact_tolerance", "speckle_smoothing"):
             if not getattr(self, name) >= 0:
                 raise ValueError(
                     f"ultrasound setting {name} must be non-negative, got {getattr(self, name)}"

@@ -26,6 +26,7 @@ from sim.ultrasound.echo import (
     grid_points,
     lateral_clutter,
     scan_lines,
+    smooth_within,
     transpose_pair,
 )
 from sim.ultrasound.probe import LinearProbe
@@ -51,6 +52,13 @@ def db_to_amplitude(db: float) -> np.float64: ...
 def db_to_amplitude(db: np.ndarray | float) -> np.ndarray | np.float64:
     """Amplitude ratio of a level in decibels (a numpy scalar for a scalar level)."""
     return 10.0 ** (np.asarray(db) / 20.0)
+
+
+def gaussian_taps(sigma: float) -> np.ndarray:
+    """A unit-sum Gaussian kernel of standard deviation `sigma` (pixels), +-3 sigma wide."""
+    half = max(1, math.ceil(3.0 * sigma))
+    taps = np.exp(-0.5 * (np.arange(-half, half + 1) / sigma) ** 2)
+    return (taps / taps.sum()).astype(np.float32)
 
 
 class UltrasoundSimulator:
@@ -119,6 +127,15 @@ class UltrasoundSimulator:
         self._grey_map = np.round(255.0 * levels**settings.grey_gamma).astype(np.uint8)
         self._clutter_power = (
             0.0 if settings.clutter_db is None else float(10.0 ** (settings.clutter_db / 10.0))
+        )
+        smoothing = settings.speckle_smoothing
+        self._smoothing = (
+            (
+                gaussian_taps(smoothing / probe.pixel_height),
+                gaussian_taps(smoothing / probe.pixel_width),
+            )
+            if smoothing
+            else None
         )
         self._clutter_half_cols = max(1, round(settings.clutter_width / probe.pixel_width / 2))
         self._clutter = np.zeros(probe.cols * probe.rows, dtype=np.float32)
@@ -217,4 +234,9 @@ class UltrasoundSimulator:
             self._label_lines,
         )
         transpose_pair(self._image_lines, self._label_lines, image, labels)
+        if self._smoothing is not None:
+            imaged = (sample.material >= 0).reshape(probe.cols, probe.rows).T & contact[None, :]
+            smoothed = np.empty_like(image)
+            smooth_within(image, imaged, *self._smoothing, smoothed)
+            image = smoothed
         return image, labels

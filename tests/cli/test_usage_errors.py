@@ -56,6 +56,14 @@ BAD_VALUES: dict[tuple[str, ...], tuple[list[str], str]] = {
     ("calibrate-time",): (["s.h5", "--step", "fast"], "Invalid value for '--step'"),
     ("calibration-plan",): (["t.yaml", "--cycles", "x"], "Invalid value for '--cycles'"),
     ("vessels",): (["s.h5", "--out", "o", "--subject", "x"], "Invalid value for '--subject'"),
+    ("evaluate",): (
+        ["--model", "{tmp}/none.pt", "--images", "i", "--masks", "m"],
+        "checkpoint not found",
+    ),
+    ("realism",): (
+        ["--sweep", "s.h5", "--real", "r", "--out", "o", "--frames", "0"],
+        "Invalid value for '--frames'",
+    ),
     # `sweep info` has no option: its argument is the value that can be bad
     ("sweep", "info"): (["{tmp}/missing.h5"], "missing.h5: no such file"),
     ("sweep", "import-plus"): (["x.igs.mha", "--out", "{tmp}/no/x.h5"], "output folder"),

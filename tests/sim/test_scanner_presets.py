@@ -30,6 +30,7 @@ PLAIN = ScannerPreset(
     dynamic_range_db=60.0,
     clutter_db=None,
     grey_gamma=1.0,
+    speckle_smoothing=0.0,
     electronic_noise_db=-60.0,
 )
 """No clutter, identity grey map, negligible noise: the knobs under test act alone."""
@@ -139,6 +140,18 @@ def test_grey_gamma_darkens_mid_greys_and_keeps_the_ends(phantom) -> None:
     expected = np.round(255.0 * (linear / 255.0) ** 1.5)
     np.testing.assert_allclose(curved, expected, atol=1.0)
     assert curved.mean() < linear.mean()
+
+
+def test_speckle_reduction_coarsens_the_grain_and_keeps_the_mean(phantom) -> None:
+    """A Gaussian display filter of sigma s widens the grain's autocorrelation (it convolves
+    with a Gaussian of sigma sqrt(2) s), lowers the spread and keeps the mean."""
+    sharp = render(phantom, PLAIN)[0][40:150]
+    sigma = 0.2e-3
+    smooth = render(phantom, dataclasses.replace(PLAIN, speckle_smoothing=sigma))[0][40:150]
+    pixel = SMALL_PROBE.width / SMALL_PROBE.cols
+    assert correlation_width(smooth, 1) > correlation_width(sharp, 1) + sigma / pixel
+    assert smooth.std() < 0.8 * sharp.std()
+    assert smooth.mean() == pytest.approx(sharp.mean(), abs=1.0)
 
 
 def test_clutter_fills_lumens_and_barely_changes_tissue(phantom) -> None:
