@@ -37,7 +37,9 @@ def register(app: typer.Typer) -> None:
             typer.Option(help="Reslice dataset file or directory (repeat); for --regime resus."),
         ] = None,
         regime: Annotated[str, typer.Option(help="us, imagenet, aug or resus.")] = "us",
-        preset: Annotated[str, typer.Option(help="quick (CPU, minutes) or paper (GPU).")] = "quick",
+        preset: Annotated[
+            str, typer.Option(help="quick (CPU, minutes), cpu128 (CPU, 128 px) or paper (GPU).")
+        ] = "quick",
         device: Annotated[str, typer.Option(help="auto (CUDA when present), cpu, cuda.")] = "auto",
         seed: Annotated[int, typer.Option(help="Seeds weights, data order, augmentation.")] = 0,
         weights: Annotated[

@@ -10,7 +10,7 @@ from resus.segmentation.checkpoint import load_checkpoint, save_checkpoint
 from resus.segmentation.inference import predict
 from resus.segmentation.loso import run_loso, unavailable_reason
 from resus.segmentation.model import build_model, resolve_device
-from resus.segmentation.presets import QUICK
+from resus.segmentation.presets import QUICK, get_preset
 from resus.segmentation.synthetic import synthetic_subject
 
 torch.set_num_threads(1)  # one per pytest-xdist worker: more oversubscribes the 2 cores
@@ -91,3 +91,13 @@ def test_device_choice() -> None:
     if not torch.cuda.is_available():
         with pytest.raises(ResusError, match="CUDA is not available"):
             resolve_device("cuda")
+
+
+def test_the_cpu128_preset_segments_at_128_px_with_four_encoder_stages() -> None:
+    """128 px in, per-pixel scores for the three classes out, at the image's own size."""
+    preset = get_preset("cpu128")
+    assert preset.model.image_size == 128 and preset.model.encoder_depth == 4
+    model = build_model(preset.model).eval()
+    with torch.no_grad():
+        scores = model(torch.zeros(1, 1, 128, 128))
+    assert scores.shape == (1, 3, 128, 128)
