@@ -14,7 +14,7 @@
 electronic noise (a hash of the pixel and a frame key, so a given pose always gives the same
 image); time-gain compensation; envelope; log compression to grey levels; the grey map;
 black where the column has no skin contact or the pixel lies in air, with the label image
-masked alike. `smooth_within` then applies the scanner's speckle reduction, if any.
+masked alike. `smooth_lines` then applies the scanner's speckle reduction, if any.
 
 Arrays indexed `[col, row]` are column-major scan lines: `material[col * rows + row]` is the
 sample of pixel (col, row).
@@ -86,29 +86,34 @@ def grid_points(
                 out[n, axis] = origin[axis] + col * col_step[axis] + row * row_step[axis]
 
 
-@numba.njit(parallel=True, fastmath=True, cache=True)
+@numba.njit(fastmath=True, cache=True)
 def lateral_clutter(
     material: np.ndarray,
     echogenicity: np.ndarray,
     rows: int,
     power: float,
     half_cols: int,
+    cumulative: np.ndarray,
     out: np.ndarray,
 ) -> None:
     """Side-lobe clutter per pixel, `out[col * rows + row]` = `power` times the mean squared
     echogenicity of the pixels in the same row within `half_cols` columns (air counts as 0):
-    the side lobes pick up the tissue beside a lumen at the lumen's own depth."""
+    the side lobes pick up the tissue beside a lumen at the lumen's own depth. Running sums
+    over the columns, each column's rows contiguous; `cumulative` is a (cols + 1, rows)
+    float32 work buffer."""
     cols = out.shape[0] // rows
-    for row in numba.prange(rows):
-        cumulative = np.zeros(cols + 1, dtype=np.float64)
-        for col in range(cols):
+    cumulative[0, :] = 0.0
+    for col in range(cols):
+        for row in range(rows):
             m = material[col * rows + row]
             value = echogenicity[m] if m >= 0 else np.float32(0.0)
-            cumulative[col + 1] = cumulative[col] + value * value
-        for col in range(cols):
-            low = max(0, col - half_cols)
-            high = min(cols, col + half_cols + 1)
-            out[col * rows + row] = power * (cumulative[high] - cumulative[low]) / (high - low)
+            cumulative[col + 1, row] = cumulative[col, row] + value * value
+    for col in range(cols):
+        low = max(0, col - half_cols)
+        high = min(cols, col + half_cols + 1)
+        scale = np.float32(power / (high - low))
+        for row in range(rows):
+            out[col * rows + row] = scale * (cumulative[high, row] - cumulative[low, row])
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
@@ -306,43 +311,56 @@ def form_image(
 
 
 @numba.njit(parallel=True, fastmath=True, cache=True)
-def smooth_within(
-    image: np.ndarray,
-    imaged: np.ndarray,
-    kernel_rows: np.ndarray,
-    kernel_cols: np.ndarray,
+def smooth_lines(
+    lines: np.ndarray,
+    material: np.ndarray,
+    contact: np.ndarray,
+    kernel_axial: np.ndarray,
+    kernel_lateral: np.ndarray,
+    along: np.ndarray,
+    along_weight: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """`out` = `image` (rows, cols uint8) smoothed by the separable kernels over the `imaged`
-    pixels only (normalised convolution, so black margins do not bleed in); 0 elsewhere."""
-    rows, cols = image.shape
-    down = np.zeros((rows, cols), dtype=np.float32)
-    down_weight = np.zeros((rows, cols), dtype=np.float32)
-    half_rows = kernel_rows.shape[0] // 2
-    half_cols = kernel_cols.shape[0] // 2
-    for row in numba.prange(rows):
-        for t in range(kernel_rows.shape[0]):
-            source = row + t - half_rows
-            if 0 <= source < rows:
-                weight = kernel_rows[t]
-                for col in range(cols):
-                    if imaged[source, col]:
-                        down[row, col] += weight * np.float32(image[source, col])
-                        down_weight[row, col] += weight
-    for row in numba.prange(rows):
-        for col in range(cols):
-            if not imaged[row, col]:
-                out[row, col] = 0
-                continue
+    """`out` = the B-mode `lines` (cols, rows uint8) smoothed by the separable kernels over the
+    imaged pixels only (in contact, not air: normalised convolution, so black margins do not
+    bleed in), 0 elsewhere. `along`, `along_weight`: (cols, rows) float32 work buffers."""
+    cols, rows = lines.shape
+    half_axial = kernel_axial.shape[0] // 2
+    half_lateral = kernel_lateral.shape[0] // 2
+    for col in numba.prange(cols):
+        for row in range(rows):
             total = np.float32(0.0)
             weight_sum = np.float32(0.0)
-            for t in range(
-                max(0, half_cols - col), min(kernel_cols.shape[0], cols - col + half_cols)
-            ):
-                total += kernel_cols[t] * down[row, col + t - half_cols]
-                weight_sum += kernel_cols[t] * down_weight[row, col + t - half_cols]
-            value = total / weight_sum if weight_sum > 0 else np.float32(0.0)
-            out[row, col] = np.uint8(min(value + np.float32(0.5), np.float32(255.0)))
+            if contact[col]:
+                low = max(0, half_axial - row)
+                high = min(kernel_axial.shape[0], rows - row + half_axial)
+                for t in range(low, high):
+                    source = row + t - half_axial
+                    if material[col * rows + source] >= 0:
+                        total += kernel_axial[t] * np.float32(lines[col, source])
+                        weight_sum += kernel_axial[t]
+            along[col, row] = total
+            along_weight[col, row] = weight_sum
+    for col in numba.prange(cols):
+        if not contact[col]:
+            out[col, :] = 0
+            continue
+        total_line = np.zeros(rows, dtype=np.float32)
+        weight_line = np.zeros(rows, dtype=np.float32)
+        low = max(0, half_lateral - col)
+        high = min(kernel_lateral.shape[0], cols - col + half_lateral)
+        for t in range(low, high):
+            weight = kernel_lateral[t]
+            source = col + t - half_lateral
+            for row in range(rows):
+                total_line[row] += weight * along[source, row]
+                weight_line[row] += weight * along_weight[source, row]
+        for row in range(rows):
+            if material[col * rows + row] < 0 or weight_line[row] <= 0:
+                out[col, row] = 0
+            else:
+                value = total_line[row] / weight_line[row] + np.float32(0.5)
+                out[col, row] = np.uint8(min(value, np.float32(255.0)))
 
 
 @numba.njit(cache=True)

@@ -26,7 +26,7 @@ from sim.ultrasound.echo import (
     grid_points,
     lateral_clutter,
     scan_lines,
-    smooth_within,
+    smooth_lines,
     transpose_pair,
 )
 from sim.ultrasound.probe import LinearProbe
@@ -139,12 +139,16 @@ class UltrasoundSimulator:
         )
         self._clutter_half_cols = max(1, round(settings.clutter_width / probe.pixel_width / 2))
         self._clutter = np.zeros(probe.cols * probe.rows, dtype=np.float32)
+        self._clutter_sums = np.empty((probe.cols + 1, probe.rows), dtype=np.float32)
         self._element_x = (np.arange(probe.cols) - (probe.cols - 1) / 2) * probe.pixel_width
         count = probe.cols * probe.rows
         self._points = np.empty((count, 3))
         self._echo_real = np.empty((probe.cols, probe.rows), dtype=np.float32)
         self._echo_imag = np.empty((probe.cols, probe.rows), dtype=np.float32)
         self._image_lines = np.empty((probe.cols, probe.rows), dtype=np.uint8)
+        self._smoothed_lines = np.empty_like(self._image_lines)
+        self._along = np.empty((probe.cols, probe.rows), dtype=np.float32)
+        self._along_weight = np.empty_like(self._along)
         self._label_lines = np.empty((probe.cols, probe.rows), dtype=np.uint8)
         self._image_to_probe = probe.image_to_probe()
         self._sample = TissueSample.empty(count)
@@ -181,6 +185,7 @@ class UltrasoundSimulator:
                 probe.rows,
                 self._clutter_power,
                 self._clutter_half_cols,
+                self._clutter_sums,
                 self._clutter,
             )
         scan_lines(
@@ -233,10 +238,17 @@ class UltrasoundSimulator:
             self._image_lines,
             self._label_lines,
         )
-        transpose_pair(self._image_lines, self._label_lines, image, labels)
+        lines = self._image_lines
         if self._smoothing is not None:
-            imaged = (sample.material >= 0).reshape(probe.cols, probe.rows).T & contact[None, :]
-            smoothed = np.empty_like(image)
-            smooth_within(image, imaged, *self._smoothing, smoothed)
-            image = smoothed
+            smooth_lines(
+                lines,
+                sample.material,
+                contact,
+                *self._smoothing,
+                self._along,
+                self._along_weight,
+                self._smoothed_lines,
+            )
+            lines = self._smoothed_lines
+        transpose_pair(lines, self._label_lines, image, labels)
         return image, labels
