@@ -304,50 +304,16 @@ def read_sweep_set(
 
 
 def read_image_folder(folder: str | Path, name: str = "real") -> ImageSet:
-    """Every `images/*.png` of `folder` with its `masks/` namesake (grey > 127 = vessel).
+    """Every image of `folder/images` with its `folder/masks` namesake (nonzero = vessel),
+    read by `resus.segmentation.folders.read_folders` like a training set."""
+    from resus.segmentation.folders import read_folders
 
-    A minimal reader of its own: `resus.segmentation.folders` reads such folders for training.
-    """
     folder = Path(folder)
     if not folder.is_dir():
         raise ResusError("no such folder", folder)
-    image_dir, mask_dir = folder / "images", folder / "masks"
-    for sub in (image_dir, mask_dir):
-        if not sub.is_dir():
-            raise ResusError("missing: expected folders images/ and masks/ of PNGs", sub)
-    paths = sorted(image_dir.glob("*.png"))
-    if not paths:
-        raise ResusError("holds no PNG images", image_dir)
-    images: list[np.ndarray] = []
-    vessels: list[np.ndarray] = []
-    for path in paths:
-        mask_path = mask_dir / path.name
-        if not mask_path.is_file():
-            raise ResusError(f"missing: the mask of images/{path.name}", mask_path)
-        image, mask = _read_grey_png(path), _read_grey_png(mask_path)
-        if mask.shape != image.shape:
-            raise ResusError(
-                f"mask is {mask.shape[1]} x {mask.shape[0]} px, its image "
-                f"{image.shape[1]} x {image.shape[0]}",
-                mask_path,
-            )
-        images.append(image)
-        vessels.append(mask > 127)
-    return ImageSet(name, tuple(images), tuple(vessels), tuple(path.name for path in paths))
-
-
-def _read_grey_png(path: Path) -> np.ndarray:
-    """An 8-bit grey image from a grey, RGB or RGBA PNG."""
-    import cv2
-
-    from resus.acquisition.backends.video import to_grey
-
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if image is None:
-        raise ResusError("not a readable PNG image", path)
-    if image.dtype != np.uint8:
-        raise ResusError(f"is a {image.dtype} image; expected 8-bit", path)
-    return to_grey(image)  # OpenCV reads colour as BGR(A), to_grey's default order
+    data = read_folders(folder / "images", folder / "masks")
+    vessels = tuple(labels > 0 for labels in data.labels)
+    return ImageSet(name, data.images, vessels, data.names)
 
 
 # ---- measuring ----------------------------------------------------------------------------

@@ -6,7 +6,7 @@ folder of masks (`masks/0001.png`), paired by file stem. `read_folders` reads bo
 images train and score through the same path as simulated frames.
 
 - Images: PNG or JPEG, 8-bit grey, RGB(A), palette or bilevel, any size. Colour becomes grey
-  by the ITU-R 601 luma (`to_grey`, the frame grabber's conversion).
+  by the ITU-R 601 luma (`resus.sweep.images.to_grey`, as every other path into the pipeline).
 - Masks: PNG only (JPEG's artefacts would mark vessels everywhere), grey, RGB(A) or palette,
   the same size as their image. RGB masks whose pixels are all grey count as grey; RGB masks
   in `sim.labels`' artery and vein colours become their label values; in other RGB masks any
@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from resus.acquisition.backends.video import to_grey
 from resus.errors import ResusError
 from resus.segmentation.data import LabelledImages
+from resus.sweep.images import to_grey
 from sim.labels import BACKGROUND, VEIN, VESSEL_CLASSES, label_colour
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")

@@ -8,6 +8,7 @@
 - `igtl`: frames out over OpenIGTLink as PLUS sends them (live, or a file replayed).
 - `cvat`: CVAT segmentation masks (or plain label PNGs) in and out as a sweep's labels.
 - `preview`: a PNG contact sheet of evenly chosen frames.
+- `images`: grey, BGR(A) or RGB(A) images to 8-bit grey, for every path into a Sweep.
 """
 
 from resus import lazy_exports
@@ -17,6 +18,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
     """
 cvat: attach_labels export_labels read_label_masks
 igtl: IgtlServer stream_sweep
+images: to_grey
 io: SweepReader SweepWriter read_sweep write_sweep
 model: FrameSink Sweep SweepError SweepFrame pixel_spacing pixels_to_world
 plus: export_plus_sequence import_plus_sequence read_plus_calibration write_plus_calibration

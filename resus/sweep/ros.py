@@ -166,7 +166,7 @@ def _scale_16bit(image: np.ndarray) -> np.ndarray:
 def _grey(image: np.ndarray, colour_order: str) -> np.ndarray:
     """(H, W) uint8 from an 8- or 16-bit grey, RGB(A) or BGR(A) array (the video probe's
     `to_grey` does the colour conversion)."""
-    from resus.acquisition.backends.video import to_grey
+    from resus.sweep.images import to_grey
 
     if image.dtype == np.uint16:
         image = _scale_16bit(image)

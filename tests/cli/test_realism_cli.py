@@ -116,5 +116,5 @@ def test_bad_input_is_one_line(monkeypatch, capsys, sweep_path, real_folder, tmp
             fragments=("file/o: cannot write the report there",))  # fmt: skip
     (real_folder / "masks" / "0001.png").unlink()
     refused("--sweep", sweep_path, "--real", real_folder,
-            fragments=("--real", "0001.png: missing: the mask of images/0001.png"))  # fmt: skip
+            fragments=("--real", "images/0001.png: has no mask"))  # fmt: skip
     assert not (tmp_path / "o").exists()

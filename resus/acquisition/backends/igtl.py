@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from resus.acquisition.backends.video import BufferedProbe, to_grey
+from resus.acquisition.backends.video import BufferedProbe
 from resus.acquisition.calibration.probe import ProbeCalibration
 from resus.acquisition.probe import Frame
 from resus.acquisition.safety import SafetyViolation
@@ -50,6 +50,7 @@ from resus.sweep.igtl import (
     check_port,
     pose_from_mm,
 )
+from resus.sweep.images import to_grey
 from resus.sweep.model import check_calibration
 from resus.sweep.plus import from_mm
 from sim.transforms import invert_pose

@@ -28,6 +28,7 @@ import numpy as np
 from resus.acquisition.calibration.probe import ProbeCalibration, parse_crop
 from resus.acquisition.probe import Frame, Probe
 from resus.errors import ResusError
+from resus.sweep.images import to_grey
 
 
 @dataclass(frozen=True)
@@ -52,29 +53,6 @@ class VideoProbeConfig:
             raise ResusError(
                 f"VideoProbeConfig.buffer_frames must be at least 1, got {self.buffer_frames}"
             )
-
-
-def to_grey(image: np.ndarray, colour_order: str = "bgr") -> np.ndarray:
-    """An 8-bit grey image from a grey, BGR(A) or (with `colour_order="rgb"`) RGB(A) frame:
-    OpenCV grabs BGR, OpenIGTLink and ROS images are usually RGB."""
-    import cv2
-
-    if image.dtype != np.uint8:
-        raise ResusError(f"the video delivers {image.dtype} frames; expected 8-bit video")
-    if image.ndim == 2:
-        return image
-    if image.ndim == 3 and image.shape[2] == 1:
-        return image[:, :, 0]
-    if image.ndim == 3 and image.shape[2] in (3, 4):
-        codes = {
-            ("bgr", 3): cv2.COLOR_BGR2GRAY,
-            ("bgr", 4): cv2.COLOR_BGRA2GRAY,
-            ("rgb", 3): cv2.COLOR_RGB2GRAY,
-            ("rgb", 4): cv2.COLOR_RGBA2GRAY,
-        }
-        code = codes[colour_order, image.shape[2]]
-        return cv2.cvtColor(image, code)
-    raise ResusError(f"the video delivers frames of shape {image.shape}; expected an image")
 
 
 class BufferedProbe(Probe):
