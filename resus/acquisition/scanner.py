@@ -14,7 +14,7 @@ stops the robot, closes the Sweep with every frame recorded so far, and raises S
 from __future__ import annotations
 
 import bisect
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -144,9 +144,16 @@ class Scanner:
             raise SafetyViolation(f"unsafe plan '{trajectory.name}': " + "; ".join(reasons))
 
     def run(
-        self, trajectory: Trajectory, out_path: str | Path, *, source: str, subject: str = ""
+        self,
+        trajectory: Trajectory,
+        out_path: str | Path,
+        *,
+        source: str,
+        subject: str = "",
+        provenance: Mapping[str, object] | None = None,
     ) -> ScanResult:
-        """Scan along `trajectory`, writing the Sweep to `out_path` as frames arrive."""
+        """Scan along `trajectory`, writing the Sweep (with `provenance`, see `Sweep`) to
+        `out_path` as frames arrive."""
         self.check_plan(trajectory)
         out_path = Path(out_path)
         rows, cols = self.probe.shape
@@ -159,6 +166,7 @@ class Scanner:
             with_joints=True,
             source=source,
             subject=subject,
+            provenance=provenance,
         )
         recorded = _Recording((writer, *self.listeners))
         with writer:

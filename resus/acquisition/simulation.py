@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +16,7 @@ from resus.acquisition.backends.simulated import (
 from resus.acquisition.patterns import SweepPattern
 from resus.acquisition.scanner import Scanner, ScannerSettings, ScanResult
 from resus.acquisition.trajectory import Trajectory
-from resus.errors import simulator_errors
+from resus.errors import ResusError, simulator_errors
 from resus.sweep.model import FrameSink
 from sim.phantom import Phantom, PhantomSpec
 from sim.robot.scene import load_scene_phantom
@@ -58,7 +58,8 @@ def simulate_sweep(
     `preset` images with that scanner preset's probe and settings (not with `probe`)."""
     if probe is not None and preset is not None:
         raise ValueError("simulate_sweep takes a probe config or a scanner preset, not both")
-    phantom = Phantom(phantom_spec(scene, seed))
+    spec = phantom_spec(scene, seed)
+    phantom = Phantom(spec)
     if isinstance(trajectory, SweepPattern):
         trajectory = trajectory.trajectory(phantom, scene.phantom_to_base)
     robot = SimulatedRobot(scene)
@@ -71,7 +72,32 @@ def simulate_sweep(
     scanner = Scanner(
         robot, probe_source, settings=ScannerSettings(progress=progress), listeners=listeners
     )
-    return scanner.run(trajectory, out, source="sim", subject=subject_id(scene))
+    provenance = {
+        "phantom": scene.phantom,
+        "subject": scene.subject,
+        "seed": spec.seed,
+        "scanner": None if preset is None else preset.name,
+        "dynamic_range_db": probe_config.settings.dynamic_range_db,
+    }
+    return scanner.run(
+        trajectory, out, source="sim", subject=subject_id(scene), provenance=provenance
+    )
+
+
+def simulated_truth(scene: SceneConfig, provenance: Mapping[str, object]) -> PhantomSpec:
+    """The phantom a simulated Sweep was recorded from, as its `provenance` says (its seed
+    included), for scoring against `scene`; a ResusError when the scene names another
+    phantom or subject than the sweep was made from, since the scores would compare
+    different anatomy."""
+    made_from = (provenance.get("phantom"), provenance.get("subject"))
+    if "phantom" in provenance and made_from != (scene.phantom, scene.subject):
+        raise ResusError(
+            f"the sweep was simulated from phantom {made_from[0]!r} subject {made_from[1]} "
+            f"(its provenance), not {scene.phantom!r} subject {scene.subject}: scores would "
+            "compare different anatomy"
+        )
+    seed = provenance.get("seed")
+    return phantom_spec(scene, seed if isinstance(seed, int) else None)
 
 
 def subject_id(scene: SceneConfig) -> str:

@@ -48,7 +48,7 @@ GREY_LEVELS = 256
 REAL_CREDIT = "real: tmkand/usgra-seg (CC BY 4.0)"
 """The real images' licence asks for this credit wherever they or figures of them are shown."""
 SIMULATOR_DYNAMIC_RANGE_DB = UltrasoundSettings().dynamic_range_db
-"""The simulator's display dynamic range: a Sweep does not record it, so the default's."""
+"""The simulator's default display dynamic range, for sweeps whose provenance lacks theirs."""
 RAYLEIGH_LOG_STD_DB = 10.0 / math.log(10.0) * math.pi / math.sqrt(6.0)
 """Standard deviation of log-compressed fully developed speckle: 5.57 dB.
 
@@ -277,22 +277,27 @@ def _shown(value: float | None, digits: int) -> str:
 def read_sweep_set(
     paths: Sequence[str | Path],
     frames: int | None = None,
-    dynamic_range_db: float = SIMULATOR_DYNAMIC_RANGE_DB,
+    dynamic_range_db: float | None = None,
     name: str = "simulated",
 ) -> ImageSet:
     """`frames` evenly spaced labelled frames of each sweep (all of them when None); the
-    vessel mask is every class of the sweep's vocabulary that is a vessel (artery, vein)."""
+    vessel mask is every class of the sweep's vocabulary that is a vessel (artery, vein).
+    `dynamic_range_db` (None: the sweeps' own, from their provenance, or the simulator's
+    default for sweeps without one; unknown when the sweeps differ) sets the Rayleigh
+    reference."""
     from resus.sweep.io import SweepReader
 
     images: list[np.ndarray] = []
     vessels: list[np.ndarray] = []
     sources: list[str] = []
+    ranges: set[object] = set()
     for path in map(Path, paths):
         with SweepReader(path) as reader:
             if not reader.has_labels:
                 raise ResusError("the sweep has no labels (realism needs its vessels)", path)
             if len(reader) == 0:
                 raise ResusError("the sweep holds no frames", path)
+            ranges.add(reader.provenance.get("dynamic_range_db", SIMULATOR_DYNAMIC_RANGE_DB))
             values = [v for v, label in enumerate(reader.label_names) if label in VESSEL_CLASSES]
             for index in evenly_spaced(len(reader), frames or len(reader)):
                 frame = reader.frame(index)
@@ -300,6 +305,9 @@ def read_sweep_set(
                 images.append(frame.image)
                 vessels.append(np.isin(frame.label, values))
                 sources.append(f"{path.name} #{index}")
+    if dynamic_range_db is None and len(ranges) == 1:
+        only = ranges.pop()
+        dynamic_range_db = float(only) if isinstance(only, int | float) else None
     return ImageSet(name, tuple(images), tuple(vessels), tuple(sources), dynamic_range_db)
 
 

@@ -12,10 +12,11 @@ datasets, or with a NaN timestamp) trails the committed ones, and the reader ign
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import struct
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,7 @@ from resus.sweep.model import (
     check_label_names,
     check_labels,
     check_poses,
+    check_provenance,
     check_source,
     check_timestamps,
     check_uint8,
@@ -95,6 +97,7 @@ class SweepWriter(AbstractContextManager):
         subject: str = "",
         label_names: Sequence[str] = LABEL_NAMES,
         created: str | None = None,
+        provenance: Mapping[str, object] | None = None,
     ) -> None:
         self.path = Path(path)
         with file_errors(self.path, "creating the sweep file"):
@@ -110,6 +113,7 @@ class SweepWriter(AbstractContextManager):
                 "source": check_source(source),
                 "subject": str(subject),
                 "created": check_created(now_iso() if created is None else created),
+                "provenance": json.dumps(check_provenance(provenance or {})),
             }
             self._file = h5py.File(self.path, "w", libver="latest")
             try:
@@ -309,6 +313,7 @@ class SweepReader(AbstractContextManager):
         self.source = check_source(_text(file.attrs["source"]))
         self.subject = _text(file.attrs["subject"])
         self.created = check_created(_text(file.attrs["created"]))
+        self.provenance = _provenance(file.attrs.get("provenance"))
         self.timestamps = check_timestamps(present["timestamps"][:n])
         self.probe_to_base = check_poses(present["probe_to_base"][:n])
         self.wrench, self.joint_positions = (
@@ -388,11 +393,22 @@ class SweepReader(AbstractContextManager):
                 source=self.source,
                 subject=self.subject,
                 created=self.created,
+                provenance=self.provenance,
             )
 
 
 def _text(value: object) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _provenance(value: object) -> dict:
+    """The `provenance` attribute (JSON); files written before it existed have none: {}."""
+    if value is None:
+        return {}
+    try:
+        return check_provenance(json.loads(_text(value)))
+    except ValueError:
+        raise SweepError("attribute 'provenance' is not JSON") from None
 
 
 def read_sweep(path: str | Path) -> Sweep:
@@ -414,6 +430,7 @@ def write_sweep(path: str | Path, sweep: Sweep) -> None:
         subject=sweep.subject,
         label_names=sweep.label_names,
         created=sweep.created,
+        provenance=sweep.provenance,
     ) as writer:
         for index in range(len(sweep)):
             writer.append(sweep.frame(index))

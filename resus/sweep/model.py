@@ -9,6 +9,8 @@ time runs forward. The `check_*` functions hold those rules once; the HDF5 write
 
 from __future__ import annotations
 
+import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import NamedTuple, Protocol
@@ -134,6 +136,17 @@ def check_created(created: str) -> str:
     return str(created)
 
 
+def check_provenance(provenance: object) -> dict:
+    """A mapping with text keys that JSON can hold: what made the sweep (for a simulated one
+    the phantom, subject, seed and scanner preset), so later stages rebuild the same truth."""
+    if not isinstance(provenance, Mapping) or not all(isinstance(k, str) for k in provenance):
+        raise SweepError("provenance must be a mapping with text keys")
+    try:
+        return json.loads(json.dumps(dict(provenance), allow_nan=False))
+    except (TypeError, ValueError) as error:
+        raise SweepError(f"provenance must hold only JSON values: {error}") from None
+
+
 def pixel_spacing(image_to_probe: np.ndarray) -> tuple[float, float]:
     """(column, row) pixel size in metres: the norms of the calibration's first two columns."""
     norms = np.linalg.norm(np.asarray(image_to_probe)[:3, :2], axis=0)
@@ -210,6 +223,9 @@ class Sweep:
     """Who or what was scanned (leave-one-subject-out evaluation groups by it)."""
     created: str = field(default_factory=now_iso)
     """When the scan was recorded, ISO 8601."""
+    provenance: Mapping[str, object] = field(default_factory=dict)
+    """What made it (JSON values): for a simulated sweep `phantom`, `subject`, `seed`,
+    `scanner` and its `dynamic_range_db`; empty when unknown."""
 
     def __post_init__(self) -> None:
         frames = check_uint8(self.frames, "frames", 3)
@@ -217,7 +233,7 @@ class Sweep:
         if n == 0:
             raise SweepError("a sweep needs at least one frame")
         label_names = check_label_names(self.label_names)
-        checked: dict[str, np.ndarray | tuple[str, ...] | str] = {
+        checked: dict[str, np.ndarray | tuple[str, ...] | str | dict] = {
             "frames": frames,
             "probe_to_base": check_poses(self.probe_to_base),
             "timestamps": check_timestamps(self.timestamps),
@@ -226,6 +242,7 @@ class Sweep:
             "source": check_source(self.source),
             "subject": str(self.subject),
             "created": check_created(self.created),
+            "provenance": check_provenance(self.provenance),
         }
         if self.labels is not None:
             labels = check_uint8(self.labels, "labels", 3)

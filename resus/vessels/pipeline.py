@@ -138,10 +138,10 @@ def map_vessels(
     )  # fmt: skip
     scores, not_scored, checked, truth_meshes = None, "", None, {}
     if sweep.source == "sim":
-        from resus.acquisition.simulation import phantom_spec
+        from resus.acquisition.simulation import simulated_truth
         from sim.phantom import Phantom
 
-        truth = Phantom(phantom_spec(scene))
+        truth = Phantom(simulated_truth(scene, sweep.provenance))
         scores = score_map(vessel_map, truth, scene.phantom_to_base, tracks)
         if plan.safe:
             checked = needle_truth(

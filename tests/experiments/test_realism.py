@@ -254,6 +254,18 @@ def test_image_folder_errors_name_the_file(tmp_path, damage: str, message: str) 
         read_image_folder(root)
 
 
+def test_sweep_sets_take_the_dynamic_range_their_provenance_records(tmp_path) -> None:
+    import dataclasses
+
+    from sweep_samples import sample_sweep
+
+    for name, range_db in (("a.h5", 60.0), ("b.h5", 60.0), ("c.h5", 48.0)):
+        sweep = dataclasses.replace(sample_sweep(n=2), provenance={"dynamic_range_db": range_db})
+        write_sweep(tmp_path / name, sweep)
+    assert read_sweep_set([tmp_path / "a.h5", tmp_path / "b.h5"]).dynamic_range_db == 60.0
+    assert read_sweep_set([tmp_path / "a.h5", tmp_path / "c.h5"]).dynamic_range_db is None
+
+
 def test_sweep_set_reads_evenly_spaced_frames_and_artery_and_vein(tmp_path) -> None:
     from sweep_samples import sample_sweep
 

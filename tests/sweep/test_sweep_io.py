@@ -3,6 +3,7 @@ writer killed with SIGKILL mid-sweep leaving every flushed frame readable."""
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import subprocess
 import sys
@@ -25,7 +26,7 @@ ARRAYS = (
     "wrench",
     "joint_positions",
 )
-METADATA = ("label_names", "source", "subject", "created")
+METADATA = ("label_names", "source", "subject", "created", "provenance")
 
 
 @pytest.mark.parametrize("optional", [True, False])
@@ -41,6 +42,18 @@ def test_round_trip_preserves_every_array_exactly(tmp_path, optional):
             assert restored.dtype == original.dtype and np.array_equal(restored, original), name
     for name in METADATA:
         assert getattr(back, name) == getattr(sweep, name), name
+
+
+def test_provenance_round_trips_and_older_files_read_without_it(tmp_path):
+    made = {"phantom": "femoral", "subject": 3, "seed": 5, "scanner": None}
+    sweep = dataclasses.replace(sample_sweep(n=2), provenance=made)
+    write_sweep(tmp_path / "s.h5", sweep)
+    assert read_sweep(tmp_path / "s.h5").provenance == made
+    with h5py.File(tmp_path / "s.h5", "a") as file:
+        del file.attrs["provenance"]  # as written before provenance existed
+    assert read_sweep(tmp_path / "s.h5").provenance == {}
+    with pytest.raises(SweepError, match="provenance must hold only JSON values"):
+        dataclasses.replace(sweep, provenance={"when": object()})
 
 
 def test_file_layout_is_the_documented_schema(tmp_path):

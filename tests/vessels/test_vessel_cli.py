@@ -45,6 +45,26 @@ def test_maps_a_sweep_and_writes_every_output(sweep_path: Path, tmp_path: Path) 
     assert "mean surface distance" in done.stdout
 
 
+def test_a_sweep_of_another_seed_is_scored_against_its_own_phantom(tmp_path: Path) -> None:
+    """The sweep's provenance carries the seed: `simulate --subject 1 --seed 5` is scored
+    against subject 1 of seed 5, not of the spec's seed (whose vessels lie elsewhere), and
+    scoring it as another subject is refused."""
+    sweep = tmp_path / "seed5.h5"
+    made = resus("simulate", "--out", sweep, "--subject", "1", "--seed", "5", "--length", "0.03",
+                 "--speed", "0.02", "--frame-rate", "20")  # fmt: skip
+    assert made.returncode == 0, made.stderr
+    done = resus("vessels", sweep, "--labels-from-sweep", "--out", tmp_path / "map",
+                 "--spacing", "0.4e-3")  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    scores = json.loads((tmp_path / "map" / "vessels.json").read_text())["scores"]
+    for name in ("artery", "vein"):
+        assert scores[name]["dice"] >= 0.98, (name, scores[name])
+    other = resus("vessels", sweep, "--labels-from-sweep", "--out", tmp_path / "map2",
+                  "--subject", "2")  # fmt: skip
+    assert other.returncode == 2
+    assert "simulated from phantom 'default' subject 1 (its provenance)" in other.stderr
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
