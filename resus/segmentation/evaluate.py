@@ -30,6 +30,7 @@ from tqdm import tqdm
 
 from resus.errors import ResusError
 from resus.segmentation.folders import VESSEL, FolderImages
+from resus.segmentation.metrics import intersection_and_union
 from resus.segmentation.trained_model import TrainedModel
 from sim.labels import EXTRA_COLOURS, VESSEL_CLASSES, tint_labels
 
@@ -77,21 +78,22 @@ def scored_classes(separates_classes: bool) -> tuple[str, ...]:
 def overlaps(
     predicted: np.ndarray, truth: np.ndarray, classes: Sequence[str]
 ) -> dict[str, Overlap]:
-    """Overlap per class of one label map with its truth ("vessel": any label above 0)."""
+    """Overlap per class of one label map with its truth ("vessel": any label above 0; artery
+    and vein counted by `metrics.intersection_and_union`)."""
     if predicted.shape != truth.shape:
         raise ResusError(f"prediction shape {predicted.shape} != label shape {truth.shape}")
-    result = {}
-    for name in classes:
-        in_predicted, in_truth = (
-            (predicted > 0, truth > 0)
-            if name == VESSEL
-            else (predicted == VESSEL_CLASSES[name], truth == VESSEL_CLASSES[name])
-        )
-        result[name] = Overlap(
+    in_predicted, in_truth = predicted > 0, truth > 0
+    result = {
+        VESSEL: Overlap(
             int(np.count_nonzero(in_predicted & in_truth)),
             int(np.count_nonzero(in_predicted | in_truth)),
         )
-    return result
+    }
+    if len(classes) > 1:
+        counts = intersection_and_union(predicted, truth)
+        pairs = zip(VESSEL_CLASSES, counts, strict=True)
+        result |= {name: Overlap(int(i), int(u)) for name, (i, u) in pairs}
+    return {name: result[name] for name in classes}
 
 
 @dataclass(frozen=True)

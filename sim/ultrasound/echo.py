@@ -218,9 +218,11 @@ def scan_lines(
                 scatter = echogenicity[m]
                 if has_texture:
                     variation = texture_variation[m]
-                    scatter *= np.float32(math.exp(variation * (texture_re[row] - variation)))
-                    ridge = texture_im[row] * _INVERSE_RIDGE_WIDTH
-                    scatter += texture_ridges[m] * np.float32(math.exp(-ridge * ridge))
+                    if variation > 0:
+                        scatter *= np.float32(math.exp(variation * (texture_re[row] - variation)))
+                    if texture_ridges[m] > 0:
+                        ridge = texture_im[row] * _INVERSE_RIDGE_WIDTH
+                        scatter += texture_ridges[m] * np.float32(math.exp(-ridge * ridge))
                 if has_clutter:
                     scatter = np.float32(math.sqrt(scatter * scatter + clutter[n]))
                 amplitude[row] = scatter * gain

@@ -9,9 +9,9 @@ import pytest
 import torch
 from cli_runner import one_line_error, run_main
 from PIL import Image
+from tiny_models import tiny_checkpoint
 
-from resus.segmentation.checkpoint import load_checkpoint, save_checkpoint
-from resus.segmentation.model import build_model
+from resus.segmentation.checkpoint import load_checkpoint
 from resus.segmentation.presets import PRESETS, QUICK
 from sim.labels import ARTERY
 
@@ -49,19 +49,8 @@ def data(tmp_path):
     return tmp_path
 
 
-def artery_everywhere(path) -> None:
-    """A checkpoint whose U-Net calls every pixel artery (its head: zero weights, bias 1 on
-    class 1), so that its vessel IoU is the share of vessel pixels."""
-    model = build_model(QUICK.model).eval()
-    head = model.segmentation_head[0]
-    with torch.no_grad():
-        head.weight.zero_()
-        head.bias.copy_(torch.eye(QUICK.model.classes)[ARTERY])
-    save_checkpoint(path, model, {"model": QUICK.model.to_dict()})
-
-
 def test_evaluate_scores_a_folder_and_writes_metrics_and_overlays(data, monkeypatch, capsys):
-    artery_everywhere(data / "model.pt")
+    tiny_checkpoint(data / "model.pt", ARTERY)  # calls every pixel artery
     out = data / "evaluation"
     arguments = ["--model", data / "model.pt", "--images", data / "images"]
     arguments += ["--masks", data / "masks", "--out", out, "--device", "cpu"]
@@ -103,7 +92,7 @@ def test_train_from_image_folders_then_evaluate(data, monkeypatch, capsys):
 
 
 def test_bad_flags_and_folders_are_one_error_line(data, monkeypatch, capsys):
-    artery_everywhere(data / "model.pt")
+    tiny_checkpoint(data / "model.pt", ARTERY)  # calls every pixel artery
     good = {"--model": data / "model.pt", "--images": data / "images", "--masks": data / "masks"}
 
     def evaluate(**changed):

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 import torch
 from PIL import Image
+from tiny_models import tiny_checkpoint
 
 from resus.errors import ResusError
 from resus.segmentation import load_model
-from resus.segmentation.checkpoint import save_checkpoint
 from resus.segmentation.evaluate import (
     TRUTH_COLOUR,
     evaluate_folder,
@@ -19,7 +19,6 @@ from resus.segmentation.evaluate import (
 )
 from resus.segmentation.folders import read_folders
 from resus.segmentation.inference import predict
-from resus.segmentation.model import build_model
 from resus.segmentation.presets import QUICK
 from sim.labels import ARTERY, VEIN, label_colour
 
@@ -72,20 +71,6 @@ def test_artery_and_vein_are_scored_apart_when_the_masks_tell_them() -> None:
     assert (pooled["vessel"].intersection, pooled["vessel"].union) == (6, 8)
     assert (pooled["vein"].iou, pooled["vein"].dice) == (0.0, 0.0)
     assert evaluation.both_empty() == {"vessel": 0, "artery": 0, "vein": 0}
-
-
-def tiny_checkpoint(path, label: int | None = None):
-    """A QUICK-sized untrained U-Net saved at `path`; with `label`, its head is set to call
-    every pixel that class (zero weights, one positive bias), so its scores are known."""
-    torch.manual_seed(0)
-    model = build_model(QUICK.model).eval()
-    if label is not None:
-        head = model.segmentation_head[0]
-        with torch.no_grad():
-            head.weight.zero_()
-            head.bias.copy_(torch.eye(QUICK.model.classes)[label])
-    save_checkpoint(path, model, {"model": QUICK.model.to_dict()})
-    return model
 
 
 def test_load_model_predicts_arrays_single_images_and_lists(tmp_path) -> None:

@@ -205,17 +205,22 @@ class RTDERobot(Robot):
         """Send one command, checked against the controller's state in the same request;
         RobotFault when the state shows a fault, the command fails or the controller refuses it.
 
-        ur_rtde returns False for a refused command (None for void ones) and raises
-        RuntimeError when the link breaks under it.
+        ur_rtde returns False for a refused command (None for void ones).
         """
-        try:
-            accepted = self._connected().checked("command", name, *arguments)
-        except RuntimeError as error:
-            raise RobotFault(f"{name} failed: {self.fault() or error}") from None
-        finally:
-            self._readings = None
+        accepted = self._request(name, "command", name, *arguments)
         if accepted is False:
             raise RobotFault(f"{name} refused: {self._refusal_reason()}")
+
+    def _request(self, label: str, operation: str, *arguments: object) -> object:
+        """`operation` in the link, checked against the controller's state; ur_rtde raising
+        RuntimeError (the link broke under it) is a RobotFault naming `label`. Readings taken
+        after it are of a newer packet."""
+        try:
+            return self._connected().checked(operation, *arguments)
+        except RuntimeError as error:
+            raise RobotFault(f"{label} failed: {self.fault() or error}") from None
+        finally:
+            self._readings = None
 
     def _refusal_reason(self) -> str:
         """Why the controller refused a command. The receive stream may lag the control
@@ -230,14 +235,9 @@ class RTDERobot(Robot):
             time.sleep(self.control_period)
 
     def _period(self, operation: str) -> None:
-        """`init_period` or `wait_period` in the link (checked like a command); the next
-        readings are newer."""
-        try:
-            self._connected().checked(operation)
-        except RuntimeError as error:
-            raise RobotFault(f"{operation} failed: {self.fault() or error}") from None
+        """`init_period` or `wait_period` in the link (checked like a command)."""
+        self._request(operation, operation)
         self._period_open = True
-        self._readings = None
 
     def move_linear(self, pose: np.ndarray, speed: float, acceleration: float) -> None:
         self._command("moveL", pose_to_ur(pose).tolist(), speed, acceleration, False)

@@ -87,6 +87,10 @@ class ControllerState(NamedTuple):
         return None
 
 
+LINK_DOWN = ControllerState(False, False, 0, False, False)
+"""The state of a link that is gone: nothing on the controller can be read."""
+
+
 class RTDELink:
     """The parent's end: a child process holding ur_rtde's control and receive interfaces."""
 
@@ -166,11 +170,11 @@ class RTDELink:
     def state(self) -> ControllerState:
         """Link, program and safety state; a dead child or a broken link reads as link down."""
         if self.lost:
-            return ControllerState(False, False, 0, False, False)
+            return LINK_DOWN
         try:
             state = ControllerState(*self.call("state"))
         except RobotFault:
-            return ControllerState(False, False, 0, False, False)
+            return LINK_DOWN
         if not state.link_up:
             self._lose("the controller closed the link")
         return state
@@ -298,10 +302,10 @@ class _Session:
 
     def state(self) -> tuple[bool, bool, int, bool, bool]:
         """Link, program and safety state (ControllerState's fields). The program state is read
-        before the safety state: a script that a protective
-        stop ended shows as the protective stop, not as a stopped script."""
+        before the safety state: a script that a protective stop ended shows as the protective
+        stop, not as a stopped script."""
         if not self.check_link():
-            return False, False, 0, False, False
+            return (*LINK_DOWN,)  # a plain tuple: see the note on replies above
         receive = self.receive
         runtime_state = receive.getRuntimeState()
         return (
