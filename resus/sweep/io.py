@@ -293,7 +293,10 @@ class SweepReader(AbstractContextManager):
         for name in ("image_to_probe", "label_names", "source", "subject", "created"):
             if name not in file.attrs:
                 raise SweepError(f"missing attribute {name!r}")
-        present = {name: file[name] for name in file if isinstance(file[name], h5py.Dataset)}
+        # Timestamps first: a live writer appends a frame's rows before its timestamp, so every
+        # dataset opened after the timestamps has at least as many rows (see _committed_count).
+        names = ["timestamps", *(name for name in file if name != "timestamps")]
+        present = {name: file[name] for name in names if isinstance(file[name], h5py.Dataset)}
         self.count = self._committed_count(present)
         frames = present["frames"]
         if frames.dtype != np.uint8 or frames.ndim != 3:
@@ -324,13 +327,14 @@ class SweepReader(AbstractContextManager):
 
     @staticmethod
     def _committed_count(datasets: dict[str, h5py.Dataset]) -> int:
-        """Frames whose timestamp was written: a killed writer leaves at most one row more."""
+        """Frames whose timestamp was written. Other datasets may hold more rows (frames a
+        live writer is still writing, or the one a killed writer left), never fewer."""
         stamps = datasets["timestamps"]
         count = len(stamps)
         if count and not np.isfinite(stamps[count - 1]):
             count -= 1
         for name, dataset in datasets.items():
-            if dataset.ndim == 0 or len(dataset) - count not in (0, 1):
+            if dataset.ndim == 0 or len(dataset) < count:
                 rows = "no rows" if dataset.ndim == 0 else f"{len(dataset)} rows"
                 raise SweepError(
                     f"mismatched shapes: {name} has {rows} but timestamps has {len(stamps)}"
