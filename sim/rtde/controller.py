@@ -47,6 +47,12 @@ READY, DONE, BUSY = 1, 2, 0
 CONTROL_PROGRAM = "rtde_control"
 _PROGRAM_NAME = re.compile(r"^\s*def\s+(\w+)\s*\(\s*\)\s*:", re.MULTILINE)
 _INT_OFFSET = re.compile(r"# int register offset\n(\d+)")
+PROGRAM_START_DELAY = 0.1
+"""Seconds from a script's arrival to its first cycle. A real controller compiles a program
+before it runs it (a tenth of a second and more); the delay also keeps the order a client
+relies on across its two sockets: the register clear ur_rtde sends on RTDE after a failed
+command is applied before the re-uploaded script starts, instead of the script serving the
+stale command again."""
 
 
 @dataclass(frozen=True)
@@ -131,6 +137,7 @@ class Controller:
         self.safety_mode = SAFETY_NORMAL
         self.program_running = False
         self.program_error: str | None = None
+        self._program_starts_at: tuple[float, int] | None = None  # (arm time, register offset)
         self.handshake = READY
         self.register_offset = 0
         self.motion: Motion | None = None
@@ -173,7 +180,7 @@ class Controller:
             self.inputs.update(self._pending_inputs.popleft())
 
     def start_program(self, script: str) -> None:
-        """A URScript program arrived on the script port."""
+        """A URScript program arrived on the script port: it runs `PROGRAM_START_DELAY` later."""
         with self.lock:
             match = _PROGRAM_NAME.search(script)
             name = match.group(1) if match else "<no def>"
@@ -183,23 +190,30 @@ class Controller:
                     f"{CONTROL_PROGRAM} natively, it is not a URScript interpreter"
                 )
                 return
-            if self.robot_mode != ROBOT_MODE_RUNNING or self.safety_mode != SAFETY_NORMAL:
-                self._fail_program("program not started: robot not running or safety stopped")
-                return
             offset = _INT_OFFSET.search(script)
-            self.register_offset = int(offset.group(1)) if offset else 0
-            self.registers = {}
-            self.program_running, self.program_error = True, None
-            self._signal_async(-1)
-            self._set_handshake(READY)
-            log.info("program %s running (register offset %d)", name, self.register_offset)
+            start = self.arm.time() + PROGRAM_START_DELAY
+            self._program_starts_at = (start, int(offset.group(1)) if offset else 0)
+
+    def _start_due_program(self) -> None:
+        if self._program_starts_at is None or self.arm.time() < self._program_starts_at[0]:
+            return
+        _, self.register_offset = self._program_starts_at
+        self._program_starts_at = None
+        if self.robot_mode != ROBOT_MODE_RUNNING or self.safety_mode != SAFETY_NORMAL:
+            self._fail_program("program not started: robot not running or safety stopped")
+            return
+        self.registers = {}
+        self.program_running, self.program_error = True, None
+        self._signal_async(-1)
+        self._set_handshake(READY)
+        log.info("program %s running (register offset %d)", CONTROL_PROGRAM, self.register_offset)
 
     def stop_program(self, reason: str) -> None:
         """End the program and bring the arm to rest where it is."""
         with self.lock:
             if self.program_running:
                 log.info("program stopped: %s", reason)
-            self.program_running = False
+            self.program_running, self._program_starts_at = False, None
             self._halt()
 
     def protective_stop(self, reason: str) -> None:
@@ -231,6 +245,7 @@ class Controller:
         """One control period: serve the register protocol, drive and step the arm, publish."""
         with self.lock:
             self._apply_inputs()
+            self._start_due_program()
             if self.program_running:
                 self._serve_command()
             self._drive()

@@ -9,7 +9,7 @@ from sim.robot.kinematics import forward_kinematics
 from sim.rtde import commands as cmd
 from sim.rtde import protocol
 from sim.rtde.arm import KinematicArm
-from sim.rtde.controller import DONE, READY, Controller
+from sim.rtde.controller import DONE, PROGRAM_START_DELAY, READY, Controller
 from sim.rtde.faults import FaultPlan
 from sim.transforms import pose_to_ur
 
@@ -99,12 +99,36 @@ def _registers(command: int, doubles=(), ints=()) -> dict[str, object]:
     return values
 
 
+CONTROL_SCRIPT = "def rtde_control():\n  sync()\nend\n"
+
+
+def _start(controller: Controller) -> None:
+    """Upload the control script and cycle until it runs (PROGRAM_START_DELAY)."""
+    controller.start_program(CONTROL_SCRIPT)
+    for _ in range(round(PROGRAM_START_DELAY / controller.arm.control_period) + 2):
+        controller.cycle()
+
+
 def _running_controller() -> Controller:
     controller = Controller(KinematicArm())
-    controller.start_program("def rtde_control():\n  sync()\nend\n")
-    controller.cycle()
+    _start(controller)
     assert controller.program_running and controller.output_value("output_int_register_0") == READY
     return controller
+
+
+def test_a_script_runs_after_the_start_delay_and_not_a_command_cleared_meanwhile():
+    controller = Controller(KinematicArm())
+    controller.write_inputs(_registers(18))  # a command left in the register by a failed call
+    controller.start_program(CONTROL_SCRIPT)
+    cycles = round(PROGRAM_START_DELAY / controller.arm.control_period)
+    for _ in range(cycles - 1):
+        controller.cycle()
+    assert not controller.program_running
+    controller.write_inputs({"input_int_register_0": 0})  # ur_rtde's clear, late on RTDE
+    for _ in range(3):
+        controller.cycle()
+    assert controller.program_running and controller.program_error is None
+    assert controller.output_value("runtime_state") == 2
 
 
 def test_blocking_move_handshake_ready_busy_done_ready():
