@@ -38,12 +38,15 @@ def _options(out: Path, data: Path | None, seed: int, device: str, jobs: int):
 
 
 def register(app: typer.Typer) -> None:
-    """Add `resus experiment phantom` and `resus experiment subjects`."""
+    """Add `resus experiment phantom`, `subjects` and `sim2real`."""
+    from resus.cli import sim2real
+
     group = typer.Typer(
-        help="The paper's tables in simulation: report.md, results.json, figures.",
+        help="The paper's tables in simulation, and sim-to-real: report.md, results.json, figures.",
         no_args_is_help=True,
     )
     app.add_typer(group, name="experiment")
+    sim2real.register(group)
 
     @group.command("phantom")
     def phantom_command(

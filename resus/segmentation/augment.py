@@ -12,15 +12,30 @@ seeded generator and draw from it in turn: repeatable, and independent of each o
 from __future__ import annotations
 
 import random
+from dataclasses import dataclass
 
 import albumentations as albu
 import numpy as np
 
+from resus.segmentation.framing import ExportFraming
 from resus.segmentation.presets import AugmentationConfig
 
 
-def build_augmentation(config: AugmentationConfig, seed: int) -> albu.Compose:
-    """A seeded albumentations pipeline: call it as `augment(image=uint8, mask=uint8)`."""
+@dataclass
+class AugmentationPipeline:
+    """Export framing (`resus.segmentation.framing`), then the albumentations pipeline:
+    `augment(image=uint8, mask=uint8) -> {"image", "mask"}`."""
+
+    framing: ExportFraming
+    pipeline: albu.Compose
+
+    def __call__(self, *, image: np.ndarray, mask: np.ndarray) -> dict[str, np.ndarray]:
+        framed = self.framing(image=image, mask=mask)
+        return self.pipeline(image=framed["image"], mask=framed["mask"])
+
+
+def build_augmentation(config: AugmentationConfig, seed: int) -> AugmentationPipeline:
+    """The seeded transforms of the `aug` regime."""
     pipeline = albu.Compose(
         [
             albu.HorizontalFlip(p=config.horizontal_flip_p),
@@ -35,4 +50,6 @@ def build_augmentation(config: AugmentationConfig, seed: int) -> albu.Compose:
         ]
     )
     pipeline.set_random_state(np.random.default_rng(seed), random.Random(seed))
-    return pipeline
+    return AugmentationPipeline(
+        ExportFraming(config, np.random.default_rng([seed, 0xF4A])), pipeline
+    )

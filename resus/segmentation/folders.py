@@ -24,6 +24,7 @@ image without a mask or a mask without an image, an unreadable file, a size mism
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -68,6 +69,16 @@ class FolderImages:
     def separates_classes(self) -> bool:
         """Whether the masks tell artery from vein (else every vessel is label 1)."""
         return self.classes != (VESSEL,)
+
+    def subset(self, indices: Sequence[int]) -> FolderImages:
+        """The images at `indices` (in that order), e.g. one split of a data set."""
+        pick = [int(i) for i in indices]
+        return dataclasses.replace(
+            self,
+            names=tuple(self.names[i] for i in pick),
+            images=tuple(self.images[i] for i in pick),
+            labels=tuple(self.labels[i] for i in pick),
+        )
 
     def labelled_sets(self, subject: str | None = None) -> list[LabelledImages]:
         """One `LabelledImages` per image size, in order of first appearance.

@@ -41,6 +41,20 @@ def predict(
         logits = model(images_to_tensor(resize_images(batch, image_size)).to(device))
         if (height, width) != (image_size, image_size):
             logits = nn.functional.interpolate(logits, size=(height, width), mode="bilinear")
-        labels[start : start + len(batch)] = logits.argmax(1).to(torch.uint8).cpu().numpy()
+        labels[start : start + len(batch)] = class_argmax(logits).cpu().numpy()
     model.train(was_training)
+    return labels
+
+
+def class_argmax(logits: torch.Tensor) -> torch.Tensor:
+    """(N, C, H, W) scores -> (N, H, W) uint8 index of the highest class (the first on a tie,
+    as `argmax`). A running comparison over the few classes: on a CPU, `argmax(1)` over the
+    strided class axis took 6x longer than segmenting the images (1.8 s against 0.3 s for 32
+    images at 534 x 512)."""
+    best = logits[:, 0]
+    labels = torch.zeros(best.shape, dtype=torch.uint8, device=logits.device)
+    for value in range(1, logits.shape[1]):
+        scores = logits[:, value]
+        labels[scores > best] = value
+        best = torch.maximum(best, scores)
     return labels

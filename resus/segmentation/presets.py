@@ -75,6 +75,15 @@ class AugmentationConfig:
     """Brightness shift up to this fraction of 255, either way."""
     contrast_limit: float = 0.2
     """Contrast scaled by up to this fraction, either way."""
+    framing_p: float = 0.0
+    """Probability of export framing (`resus.segmentation.framing`): the frame shrunk into a
+    black canvas like a scanner's export. Off by default (the paper's regime has none)."""
+    framing_height: tuple[float, float] = (0.6, 1.0)
+    """Share of the canvas height the imaged area keeps (real 512-row exports: about 0.65)."""
+    framing_width: tuple[float, float] = (0.8, 1.0)
+    """Share of the canvas width the imaged area keeps."""
+    framing_marks_p: float = 0.5
+    """Probability, once framed, of depth dots and text blocks in the margins."""
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import random
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,6 +24,7 @@ from resus.errors import ResusError
 from resus.segmentation.augment import build_augmentation
 from resus.segmentation.checkpoint import save_checkpoint
 from resus.segmentation.data import LabelledImages, SegmentationDataset
+from resus.segmentation.inference import class_argmax
 from resus.segmentation.losses import SegmentationLoss
 from resus.segmentation.metrics import VesselIoU, intersection_and_union, no_counts
 from resus.segmentation.model import build_model, resolve_device
@@ -128,6 +129,7 @@ def train_model(
     device: str | torch.device | None = None,
     augment: bool = False,
     encoder_weights: Path | None = None,
+    initial_state: Mapping[str, torch.Tensor] | None = None,
     checkpoint_path: Path | None = None,
     run_info: dict | None = None,
     progress: bool = True,
@@ -135,8 +137,10 @@ def train_model(
     """Train a U-Net on `train_sets`, early-stopping on `validation_sets`.
 
     `augment` turns on the preset's random transforms; `encoder_weights` starts the encoder
-    from a local torchvision ResNet file. The best model is written to `checkpoint_path`
-    (when given) each time the validation loss improves; `run_info` is added to its config.
+    from a local torchvision ResNet file; `initial_state` starts the whole network from a
+    trained one of the preset's architecture (fine-tuning). The best model is written to
+    `checkpoint_path` (when given) each time the validation loss improves; `run_info` is added
+    to its config.
     """
     device = device if isinstance(device, torch.device) else resolve_device(device)
     seed_everything(seed)
@@ -147,6 +151,8 @@ def train_model(
         raise ResusError("no validation images: a training subject needs at least 2 frames")
     validation_data = SegmentationDataset(validation_sets, size)
     model = build_model(preset.model, encoder_weights).to(device)
+    if initial_state is not None:
+        model.load_state_dict(initial_state)
     loader = DataLoader(
         train_data,
         batch_size=preset.batch_size,
@@ -243,5 +249,5 @@ def evaluate(
         images, labels = images.to(device), labels.to(device)
         logits = model(images)
         total += loss_function(logits, labels).item() * len(images)
-        counts += intersection_and_union(logits.argmax(1).cpu().numpy(), labels.cpu().numpy())
+        counts += intersection_and_union(class_argmax(logits).cpu().numpy(), labels.cpu().numpy())
     return total / len(dataset), VesselIoU.from_counts(counts)

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim.ultrasound.probe import LinearProbe
+from sim.ultrasound.scatterers import mix_seed
 from sim.ultrasound.settings import UltrasoundSettings
 
 LATERAL_FWHM_PER_WAVELENGTH_F_NUMBER = 1.02
@@ -189,3 +190,14 @@ def scanner_preset(name: str) -> ScannerPreset:
     raise ValueError(
         f"unknown scanner preset {name!r}; choose one of {', '.join(PRESETS)} or random-N"
     )
+
+
+def sweep_preset(name: str | None, seed: int | None, subject: int | None) -> ScannerPreset | None:
+    """The scanner preset of one sweep: None for the simulator's own settings, a named
+    preset, `random-N`, or `random`: one drawn from the phantom seed and the subject, so each
+    subject of a data set is imaged by its own scanner and always by the same one."""
+    if name is None:
+        return None
+    if name == "random":
+        return random_preset(int(mix_seed(seed or 0, -1 if subject is None else subject)))
+    return scanner_preset(name)

@@ -82,6 +82,10 @@ BAD_VALUES: dict[tuple[str, ...], tuple[list[str], str]] = {
     ("sweep", "export-labels"): (["x.h5", "--out", "{tmp}/no/labels"], "output folder"),
     ("experiment", "phantom"): (["--out", "o", "--jobs", "x"], "Invalid value for '--jobs'"),
     ("experiment", "subjects"): (["--out", "o", "--seed", "x"], "Invalid value for '--seed'"),
+    ("experiment", "sim2real"): (
+        ["--real", "r", "--out", "o", "--jobs", "0"],
+        "Invalid value for '--jobs'",
+    ),
 }
 
 

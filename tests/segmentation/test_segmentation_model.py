@@ -7,7 +7,7 @@ import torchvision
 
 from resus.errors import ResusError
 from resus.segmentation.checkpoint import load_checkpoint, save_checkpoint
-from resus.segmentation.inference import predict
+from resus.segmentation.inference import class_argmax, predict
 from resus.segmentation.loso import run_loso, unavailable_reason
 from resus.segmentation.model import build_model, resolve_device
 from resus.segmentation.presets import QUICK, get_preset
@@ -101,3 +101,11 @@ def test_the_cpu128_preset_segments_at_128_px_with_four_encoder_stages() -> None
     with torch.no_grad():
         scores = model(torch.zeros(1, 1, 128, 128))
     assert scores.shape == (1, 3, 128, 128)
+
+
+def test_class_argmax_is_torch_argmax_first_class_on_ties() -> None:
+    generator = torch.Generator().manual_seed(3)
+    logits = torch.randint(0, 3, (4, 3, 17, 9), generator=generator).float()  # many ties
+    labels = class_argmax(logits)
+    assert labels.dtype == torch.uint8
+    assert torch.equal(labels.long(), logits.argmax(1))

@@ -1,0 +1,482 @@
+"""The sim-to-real experiment: a U-Net trained on simulation only, scored on real images, and
+what simulation pretraining is worth once a few real labels exist.
+
+1. Simulation only. One sweep per subject of the in-vivo phantom, each imaged by its own
+   randomised scanner preset (`sim.ultrasound.scanner.sweep_preset`), trains one U-Net; no
+   real image enters that training. The model (`sim_only/checkpoint.pt`) is scored on every
+   real image (`sim_only/evaluation/`: metrics.json and overlays, as `resus evaluate` writes).
+2. The few-label curve. For each of `splits` seeded random splits of the real images into a
+   pool of `max(label_counts)` images and a test set (all the others), a U-Net is fine-tuned
+   on the first k images of the pool, once from the simulation-only weights and once from
+   random weights, and scored on the split's test set. Every k of a split shares one test
+   set, so the curve compares like with like. From simulation, k = 0 is the simulation-only
+   model itself; from scratch, k = 0 has nothing to learn from and is not reported.
+
+Every run of a fine-tuning sees the same number of images (`fine_tune_epochs` x
+`fine_tune_epoch_images`: the k images repeated, each repeat augmented afresh), so a small k is
+not also a short training. With k labels there are none to spare for validation: the best
+epoch is chosen on the k training images themselves, and the test images are never looked at
+before scoring.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from resus.acquisition.patterns import LinearPattern
+from resus.errors import ResusError
+from resus.segmentation.data import LabelledImages
+from resus.segmentation.evaluate import Evaluation, score_labels
+from resus.segmentation.folders import FolderImages
+from resus.segmentation.presets import TrainingPreset, get_preset
+from resus.segmentation.trained_model import TrainedModel
+from resus.workers import map_in_processes
+
+SCHEMA = "resus.sim2real/1"
+FROM_SIMULATION, FROM_SCRATCH = "simulation", "scratch"
+INITIALISATIONS = (FROM_SIMULATION, FROM_SCRATCH)
+"""Where a fine-tuning starts: the simulation-only weights, or random ones."""
+SIM2REAL_REGIMES = ("us", "aug")
+"""Regimes that need nothing but sweeps (no reslices, no ImageNet weights)."""
+REAL_SUBJECT = "real"
+"""Subject id of the real images when they train (fine-tuning only)."""
+
+
+@dataclass(frozen=True)
+class Sim2RealSettings:
+    """Everything the experiment does besides its real images, seed and device."""
+
+    name: str
+    subjects: tuple[int, ...]
+    """Simulated subjects of `phantom`, one sweep each."""
+    training: str
+    """Segmentation training preset (`resus.segmentation.presets`) of every model."""
+    phantom: str = "femoral"
+    scanner: str = "random"
+    """Scanner preset of every sweep (`random`: one drawn per subject)."""
+    sweep: LinearPattern = field(
+        default_factory=lambda: LinearPattern(start=(0.0, -0.04), length=0.06)
+    )
+    regime: str = "aug"
+    """Training regime of the simulation-only model and of every fine-tuning."""
+    export_framing_p: float = 0.5
+    """Probability that the `aug` regime frames an image like a scanner's export
+    (`resus.segmentation.framing`); real exports are not their imaged area."""
+    label_counts: tuple[int, ...] = (0, 5, 10, 25, 50, 100)
+    """k: real labelled images a fine-tuning gets."""
+    splits: int = 3
+    """Random splits of the real images the curve is averaged over."""
+    fine_tune_epochs: int = 6
+    fine_tune_epoch_images: int = 64
+    """Images per fine-tuning epoch: the k images repeated up to this count."""
+    minimum_test_images: int = 20
+    """The least the real set must leave for testing after the largest k."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "subjects", tuple(int(k) for k in self.subjects))
+        object.__setattr__(self, "label_counts", tuple(int(k) for k in self.label_counts))
+        where = "Sim2RealSettings"
+        if not self.subjects:
+            raise ResusError(f"{where}.subjects is empty")
+        if self.regime not in SIM2REAL_REGIMES:
+            raise ResusError(
+                f"{where}.regime must be one of {', '.join(SIM2REAL_REGIMES)}, got {self.regime!r}"
+            )
+        counts = self.label_counts
+        if not counts or list(counts) != sorted(set(counts)) or counts[0] < 0:
+            raise ResusError(
+                f"{where}.label_counts must be distinct, increasing and >= 0, got {counts}"
+            )
+        for name in ("splits", "fine_tune_epochs", "fine_tune_epoch_images", "minimum_test_images"):
+            if getattr(self, name) < 1:
+                raise ResusError(f"{where}.{name} must be at least 1, got {getattr(self, name)}")
+        if not 0 <= self.export_framing_p <= 1:
+            raise ResusError(
+                f"{where}.export_framing_p must be in [0, 1], got {self.export_framing_p}"
+            )
+        get_preset(self.training)  # an unknown preset fails here, before any work
+
+    def training_preset(self) -> TrainingPreset:
+        """The `training` preset with the experiment's export framing."""
+        preset = get_preset(self.training)
+        augmentation = dataclasses.replace(preset.augmentation, framing_p=self.export_framing_p)
+        return dataclasses.replace(preset, augmentation=augmentation)
+
+    @property
+    def pool_size(self) -> int:
+        """Real images set aside per split for fine-tuning (the largest k)."""
+        return self.label_counts[-1]
+
+    def to_dict(self) -> dict:
+        """JSON-able form (tuples become lists)."""
+        return json.loads(json.dumps(dataclasses.asdict(self)))
+
+
+SIM2REAL_PRESETS: dict[str, Sim2RealSettings] = {
+    "quick": Sim2RealSettings(name="quick", subjects=tuple(range(6)), training="cpu128"),
+    "paper": Sim2RealSettings(
+        name="paper",
+        subjects=tuple(range(24)),
+        training="paper",
+        splits=5,
+        fine_tune_epochs=10,
+        fine_tune_epoch_images=160,
+    ),
+}
+"""`quick`: 6 subjects, the 128 px CPU training preset (its training alone: 12 minutes on 2
+idle cores); `paper`: 24 subjects at the paper's 256 px ResNet34 U-Net, 5 splits (a GPU)."""
+
+
+def get_sim2real_preset(name: str) -> Sim2RealSettings:
+    """The preset called `name`, or a ResusError listing the choices."""
+    if name not in SIM2REAL_PRESETS:
+        raise ResusError(f"unknown preset {name!r}; choose one of {', '.join(SIM2REAL_PRESETS)}")
+    return SIM2REAL_PRESETS[name]
+
+
+# ---- splits and the curve ----------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RealSplit:
+    """One random split of the real images: a fine-tuning pool and a test set."""
+
+    index: int
+    pool: tuple[int, ...]
+    """Indices of the pool; a fine-tuning with k labels takes its first k."""
+    test: tuple[int, ...]
+
+
+def real_splits(count: int, settings: Sim2RealSettings, seed: int) -> list[RealSplit]:
+    """`settings.splits` seeded permutations of `count` real images, each cut into the pool
+    (the largest k) and the test set (the rest); too few images is a ResusError."""
+    needed = settings.pool_size + settings.minimum_test_images
+    if count < needed:
+        raise ResusError(
+            f"{count} real images: the few-label curve needs {settings.pool_size} for the "
+            f"largest k and {settings.minimum_test_images} to test on (label_counts, "
+            "minimum_test_images)"
+        )
+    splits = []
+    for index in range(settings.splits):
+        order = np.random.default_rng([seed, index, 0x5112]).permutation(count)
+        pool, test = order[: settings.pool_size], order[settings.pool_size :]
+        splits.append(RealSplit(index, tuple(map(int, pool)), tuple(sorted(map(int, test)))))
+    return splits
+
+
+@dataclass(frozen=True)
+class CurvePoint:
+    """One fine-tuning of the curve: where it started, how many labels, which split, and its
+    pooled vessel IoU and Dice on that split's test set."""
+
+    initialisation: str
+    labels: int
+    split: int
+    iou: float
+    dice: float
+
+
+@dataclass(frozen=True)
+class Spread:
+    """Mean and sample standard deviation over splits (0 for one split)."""
+
+    mean: float
+    std: float
+    runs: int
+
+    @classmethod
+    def of(cls, values: Sequence[float]) -> Spread:
+        values = [float(v) for v in values]
+        std = float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
+        return cls(float(np.mean(values)), std, len(values))
+
+
+def curve_summary(points: Sequence[CurvePoint]) -> dict[str, dict[int, Spread]]:
+    """IoU over splits per initialisation and k."""
+    summary: dict[str, dict[int, Spread]] = {}
+    for initialisation in INITIALISATIONS:
+        mine = [p for p in points if p.initialisation == initialisation]
+        summary[initialisation] = {
+            k: Spread.of([p.iou for p in mine if p.labels == k])
+            for k in sorted({p.labels for p in mine})
+        }
+    return summary
+
+
+def vessel_scores(model: TrainedModel, real: FolderImages) -> tuple[Evaluation, list[np.ndarray]]:
+    """`model` on every image of `real`, scored as one vessel class (artery or vein), and
+    its labels."""
+    predicted = model.predict(list(real.images))
+    return score_labels(real.names, predicted, real.labels, separates_classes=False), predicted
+
+
+def example_indices(images: FolderImages, count: int) -> list[int]:
+    """`count` evenly chosen images that show a vessel (all of them when fewer)."""
+    from resus.indices import evenly_spaced
+
+    with_vessels = [i for i, labels in enumerate(images.labels) if labels.any()]
+    return [with_vessels[i] for i in evenly_spaced(len(with_vessels), count)]
+
+
+def repeated_to(sets: Sequence[LabelledImages], count: int) -> list[LabelledImages]:
+    """`sets` repeated whole until they hold at least `count` images (once at least)."""
+    total = sum(len(s) for s in sets)
+    return list(sets) * max(1, math.ceil(count / total))
+
+
+def fine_tune(
+    real: FolderImages,
+    initial: TrainedModel | None,
+    preset: TrainingPreset,
+    settings: Sim2RealSettings,
+    *,
+    seed: int,
+    device: torch.device,
+) -> TrainedModel:
+    """A U-Net trained on the labelled real images `real`, starting from `initial`'s weights
+    (None: random ones), for the settings' fixed budget of images."""
+    from resus.segmentation.train import train_model
+
+    sets = real.labelled_sets(REAL_SUBJECT)
+    budget = dataclasses.replace(
+        preset, max_epochs=settings.fine_tune_epochs, patience=settings.fine_tune_epochs
+    )
+    result = train_model(
+        repeated_to(sets, settings.fine_tune_epoch_images),
+        sets,  # no labels to spare: the epoch is chosen on the training images (module doc)
+        budget,
+        seed=seed,
+        device=device,
+        augment=settings.regime == "aug",
+        initial_state=None if initial is None else initial.network.state_dict(),
+        run_info={"fine_tuned_from": None if initial is None else str(initial.path)},
+        progress=False,
+    )
+    return TrainedModel(result.model, result.config)
+
+
+def few_label_curve(
+    real: FolderImages,
+    sim_only: TrainedModel,
+    settings: Sim2RealSettings,
+    *,
+    seed: int,
+    device: torch.device,
+    example_count: int = 4,
+    progress: bool = True,
+) -> tuple[list[RealSplit], list[CurvePoint], dict[tuple[str, int], list[np.ndarray]]]:
+    """Every (split, initialisation, k) fine-tuning, scored; with the labels each model gave
+    `example_count` of the first split's test images (`example_indices`), for the figure."""
+    preset = settings.training_preset()
+    splits = real_splits(len(real), settings, seed)
+    runs = [
+        (split, initialisation, k)
+        for split in splits
+        for initialisation in INITIALISATIONS
+        for k in settings.label_counts
+        if k > 0 or initialisation == FROM_SIMULATION
+    ]
+    points: list[CurvePoint] = []
+    examples: dict[tuple[str, int], list[np.ndarray]] = {}
+    shown = example_indices(real.subset(splits[0].test), example_count)
+    for split, initialisation, k in tqdm(runs, desc="few-label", unit="run", disable=not progress):
+        test = real.subset(split.test)
+        if k == 0:
+            model = sim_only
+        else:
+            initial = sim_only if initialisation == FROM_SIMULATION else None
+            model = fine_tune(
+                real.subset(split.pool[:k]),
+                initial,
+                preset,
+                settings,
+                seed=seed + 1000 * split.index + k,
+                device=device,
+            )
+        evaluation, predicted = vessel_scores(model, test)
+        pooled = evaluation.pooled()["vessel"]
+        points.append(CurvePoint(initialisation, k, split.index, pooled.iou, pooled.dice))
+        if split.index == 0:
+            examples[(initialisation, k)] = [predicted[i] for i in shown]
+    return splits, points, examples
+
+
+# ---- the simulated side ----------------------------------------------------------------
+
+
+def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dict:
+    """What a sweep of the experiment must have been made from to be reused."""
+    from resus.acquisition.simulation import phantom_spec, resolve_scene
+    from sim.ultrasound.scanner import sweep_preset
+
+    scene = resolve_scene("default", settings.phantom, subject)
+    preset = sweep_preset(settings.scanner, seed, subject)
+    return {
+        "phantom": settings.phantom,
+        "subject": subject,
+        "seed": phantom_spec(scene, seed).seed,
+        "scanner": None if preset is None else preset.name,
+    }
+
+
+def simulate_subjects(
+    folder: Path, settings: Sim2RealSettings, seed: int, *, jobs: int = 2, progress: bool = True
+) -> list[Path]:
+    """One sweep per subject in `folder/subject_KK.h5`; a sweep already there from the same
+    phantom, subject, seed and scanner is kept."""
+    from resus.sweep.io import SweepReader
+
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = [folder / f"subject_{k:02d}.h5" for k in settings.subjects]
+    work = []
+    for subject, path in zip(settings.subjects, paths, strict=True):
+        wanted = sweep_provenance(settings, subject, seed)
+        if path.is_file():
+            with SweepReader(path) as reader:
+                made_from = {key: reader.provenance.get(key) for key in wanted}
+            if made_from == wanted:
+                continue
+        work.append((path, settings, subject, seed))
+    map_in_processes(_simulate_sweep, work, jobs, "simulate", "sweep", progress=progress)
+    return paths
+
+
+def _simulate_sweep(job: tuple[Path, Sim2RealSettings, int, int]) -> None:
+    """One subject's sweep (top level so worker processes can run it)."""
+    from resus.acquisition.simulation import resolve_scene, simulate_sweep
+    from sim.ultrasound.scanner import sweep_preset
+
+    path, settings, subject, seed = job
+    scene = resolve_scene("default", settings.phantom, subject)
+    preset = sweep_preset(settings.scanner, seed, subject)
+    partial = path.with_suffix(".partial.h5")
+    simulate_sweep(partial, scene, settings.sweep, seed=seed, preset=preset, progress=False)
+    partial.replace(path)  # a killed run leaves no half sweep under the final name
+
+
+# ---- the experiment ----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Sim2RealResult:
+    """What the experiment measured; `to_dict()` is results.json."""
+
+    settings: Sim2RealSettings
+    seed: int
+    command: str
+    real_folder: Path
+    sweeps: tuple[Path, ...]
+    sim_only: Evaluation
+    """The simulation-only model on every real image, vessel = artery or vein."""
+    splits: tuple[RealSplit, ...]
+    points: tuple[CurvePoint, ...]
+
+    def to_dict(self) -> dict:
+        summary = curve_summary(self.points)
+        return {
+            "schema": SCHEMA,
+            "command": self.command,
+            "seed": self.seed,
+            "settings": self.settings.to_dict(),
+            "real_folder": str(self.real_folder),
+            "sweeps": [str(path) for path in self.sweeps],
+            "sim_only": {
+                "checkpoint": "sim_only/checkpoint.pt",
+                "real_images": len(self.sim_only.names),
+                **self.sim_only.to_dict(),
+            },
+            "splits": [
+                {"index": s.index, "pool": list(s.pool), "test": list(s.test)} for s in self.splits
+            ],
+            "curve": [dataclasses.asdict(point) for point in self.points],
+            "curve_summary": {
+                initialisation: {str(k): dataclasses.asdict(s) for k, s in by_k.items()}
+                for initialisation, by_k in summary.items()
+            },
+        }
+
+
+def run_sim2real(
+    settings: Sim2RealSettings,
+    real: FolderImages,
+    out: Path,
+    *,
+    data: Path | None = None,
+    seed: int = 0,
+    device: str = "auto",
+    jobs: int = 2,
+    command: str = "",
+    progress: bool = True,
+) -> Sim2RealResult:
+    """The whole experiment on the real images `real` (`read_folders`) into `out` (report.md,
+    results.json, PNGs, sim_only/, realism/); the sweeps go to `data` (default `out/data`),
+    where a rerun finds them."""
+    from resus.experiments.realism import ImageSet, read_sweep_set, write_realism_report
+    from resus.experiments.sim2real_report import EXAMPLE_IMAGES, write_sim2real_report
+    from resus.segmentation.evaluate import evaluate_folder
+    from resus.segmentation.loaders import load_sweep_frames
+    from resus.segmentation.loso import make_split, run_regime
+    from resus.segmentation.model import resolve_device
+    from resus.segmentation.trained_model import load_model
+
+    out, real_folder = Path(out), real.image_folder.parent
+    real_splits(len(real), settings, seed)  # too few real images fails before any work
+    torch_device = resolve_device(device)
+    preset = settings.training_preset()
+    sweeps = simulate_subjects(
+        Path(data or out / "data") / "sweeps", settings, seed, jobs=jobs, progress=progress
+    )
+    frames = load_sweep_frames(sweeps)
+    split = make_split(frames, [], None, preset.validation_fraction)
+    run_regime(
+        split,
+        settings.regime,
+        preset,
+        seed=seed,
+        device=torch_device,
+        out_dir=out / "sim_only",
+        progress=progress,
+    )
+    sim_only = load_model(out / "sim_only" / "checkpoint.pt", torch_device)
+    evaluate_folder(sim_only, real, out / "sim_only" / "evaluation", progress=progress)
+    evaluation, _ = vessel_scores(sim_only, real)
+    splits, points, examples = few_label_curve(
+        real,
+        sim_only,
+        settings,
+        seed=seed,
+        device=torch_device,
+        example_count=EXAMPLE_IMAGES,
+        progress=progress,
+    )
+    result = Sim2RealResult(
+        settings,
+        seed,
+        command,
+        real_folder,
+        tuple(sweeps),
+        evaluation,
+        tuple(splits),
+        tuple(points),
+    )
+    real_set = ImageSet("real", real.images, tuple(m > 0 for m in real.labels), real.names)
+    comparison = write_realism_report(
+        out / "realism",
+        read_sweep_set(sweeps, 32),
+        real_set,
+        sources={"sweeps": f"{len(sweeps)} simulated subjects", "real": str(real_folder)},
+    )
+    test = real.subset(splits[0].test)
+    shown = test.subset(example_indices(test, EXAMPLE_IMAGES))
+    write_sim2real_report(out, result, comparison, shown, examples)
+    return result

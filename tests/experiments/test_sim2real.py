@@ -1,0 +1,259 @@
+"""The sim-to-real experiment: its splits, its curve statistics, and one small run end to end
+(simulated femoral sweeps, a simulation-only model, fine-tunings on a folder of "real" PNGs
+with known vessels), its scores checked against independent computations."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_runner import run_main
+from PIL import Image
+
+from resus.acquisition.patterns import LinearPattern
+from resus.errors import ResusError
+from resus.experiments.sim2real import (
+    FROM_SCRATCH,
+    FROM_SIMULATION,
+    CurvePoint,
+    Sim2RealSettings,
+    Spread,
+    curve_summary,
+    get_sim2real_preset,
+    real_splits,
+    repeated_to,
+    run_sim2real,
+    simulate_subjects,
+    sweep_provenance,
+)
+from resus.experiments.sim2real_report import pretraining_verdict
+from resus.segmentation.data import LabelledImages
+from resus.segmentation.folders import read_folders
+from resus.segmentation.trained_model import load_model
+
+TINY = Sim2RealSettings(
+    name="tiny",
+    subjects=(0, 1),
+    training="quick",
+    sweep=LinearPattern(start=(0.0, -0.04), length=0.01),
+    label_counts=(0, 2, 4),
+    splits=2,
+    fine_tune_epochs=1,
+    fine_tune_epoch_images=8,
+    minimum_test_images=6,
+)
+
+
+def write_real_folder(folder: Path, count: int, seed: int = 0) -> Path:
+    """`count` speckle images, two sizes, each with a dark disc (its mask 255) but every
+    fifth, which shows none: a stand-in for a folder of real images with vessel masks."""
+    rng = np.random.default_rng(seed)
+    (folder / "images").mkdir(parents=True)
+    (folder / "masks").mkdir()
+    for index in range(count):
+        shape = (96, 80) if index % 2 else (72, 88)
+        image = np.clip(rng.rayleigh(40.0, shape), 0, 255)
+        mask = np.zeros(shape, np.uint8)
+        if index % 5:
+            rows, cols = np.indices(shape)
+            centre = rng.uniform(20, 50, 2)
+            disc = (rows - centre[0]) ** 2 + (cols - centre[1]) ** 2 <= rng.uniform(6, 12) ** 2
+            image[disc] *= 0.3
+            mask[disc] = 255
+        Image.fromarray(image.astype(np.uint8)).save(folder / "images" / f"{index:04d}.png")
+        Image.fromarray(mask).save(folder / "masks" / f"{index:04d}.png")
+    return folder
+
+
+def vessel_counts(model, images) -> tuple[int, int]:
+    """Pooled vessel intersection and union of `model` on `images`, counted with numpy."""
+    predicted = model.predict(list(images.images))
+    pairs = [(p > 0, t > 0) for p, t in zip(predicted, images.labels, strict=True)]
+    return sum(int((p & t).sum()) for p, t in pairs), sum(int((p | t).sum()) for p, t in pairs)
+
+
+def test_splits_are_seeded_permutations_of_pool_and_test():
+    splits = real_splits(30, TINY, seed=5)
+    assert [s.index for s in splits] == [0, 1]
+    for split in splits:
+        assert len(split.pool) == 4 and len(split.test) == 26
+        assert sorted(split.pool + split.test) == list(range(30))
+    assert splits[0].pool != splits[1].pool
+    assert real_splits(30, TINY, seed=5) == splits
+    assert real_splits(30, TINY, seed=6) != splits
+
+
+def test_too_few_real_images_is_one_error_naming_the_settings():
+    with pytest.raises(ResusError, match=r"9 real images: .* needs 4 .* and 6 to test on"):
+        real_splits(9, TINY, seed=0)
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"label_counts": (0, 5, 5)}, "label_counts must be distinct"),
+        ({"label_counts": (10, 5)}, "label_counts must be distinct, increasing"),
+        ({"regime": "resus"}, "regime must be one of us, aug"),
+        ({"splits": 0}, "splits must be at least 1"),
+        ({"training": "huge"}, "unknown preset 'huge'"),
+        ({"subjects": ()}, "subjects is empty"),
+        ({"export_framing_p": 1.5}, r"export_framing_p must be in \[0, 1\], got 1.5"),
+    ],
+)
+def test_settings_refuse_what_cannot_run(changes, message):
+    base = {"name": "x", "subjects": (0,), "training": "quick"}
+    with pytest.raises(ResusError, match=message):
+        Sim2RealSettings(**{**base, **changes})
+
+
+def test_presets_and_unknown_preset():
+    assert get_sim2real_preset("quick").label_counts == (0, 5, 10, 25, 50, 100)
+    assert get_sim2real_preset("paper").training == "paper"
+    with pytest.raises(ResusError, match="unknown preset 'x'; choose one of quick, paper"):
+        get_sim2real_preset("x")
+
+
+def test_repeats_fill_an_epoch_and_the_spread_is_the_sample_deviation():
+    images = np.zeros((3, 4, 4), np.uint8)
+    sets = [LabelledImages(images, images, "real")]
+    assert sum(map(len, repeated_to(sets, 8))) == 9
+    assert sum(map(len, repeated_to(sets, 2))) == 3
+    spread = Spread.of([0.2, 0.4, 0.9])
+    assert spread.mean == pytest.approx(0.5)
+    assert spread.std == pytest.approx(math.sqrt(((0.3**2) + (0.1**2) + (0.4**2)) / 2))
+    assert Spread.of([0.3]).std == 0.0
+
+
+def test_curve_summary_and_the_pretraining_verdict():
+    points = [
+        CurvePoint(FROM_SIMULATION, 25, split, iou, 0.0) for split, iou in enumerate((0.50, 0.52))
+    ] + [CurvePoint(FROM_SCRATCH, 100, split, iou, 0.0) for split, iou in enumerate((0.3, 0.34))]
+    summary = curve_summary(points)
+    assert summary[FROM_SIMULATION][25].mean == pytest.approx(0.51)
+    assert summary[FROM_SCRATCH][100].runs == 2
+    as_json = {name: {str(k): vars(s) for k, s in by_k.items()} for name, by_k in summary.items()}
+    verdict = pretraining_verdict(as_json)
+    assert verdict.startswith("25 real labels with simulation pretraining give IoU 0.510 ± 0.014")
+    assert "above 100 labels from scratch (0.320 ± 0.028)" in verdict
+    close = [
+        CurvePoint(FROM_SIMULATION, 25, 0, 0.33, 0.0),
+        CurvePoint(FROM_SCRATCH, 100, 0, 0.32, 0),
+    ]
+    close += [
+        CurvePoint(FROM_SIMULATION, 25, 1, 0.29, 0.0),
+        CurvePoint(FROM_SCRATCH, 100, 1, 0.34, 0),
+    ]
+    close_json = {
+        name: {str(k): vars(s) for k, s in by_k.items()}
+        for name, by_k in curve_summary(close).items()
+    }
+    assert "no different from" in pretraining_verdict(close_json)
+
+
+@pytest.mark.slow
+def test_a_small_run_end_to_end(tmp_path):
+    folder = write_real_folder(tmp_path / "real", 20)
+    real = read_folders(folder / "images", folder / "masks")
+    out = tmp_path / "out"
+    result = run_sim2real(TINY, real, out, seed=3, device="cpu", jobs=2, progress=False)
+    results = json.loads((out / "results.json").read_text())
+    assert results == json.loads(json.dumps(result.to_dict()))
+    for name in ("report.md", "few_label_curve.png", "examples.png", "realism/realism.md"):
+        assert (out / name).is_file(), name
+    report = (out / "report.md").read_text()
+    assert "No real image entered training" in report and "| 4 |" in report
+
+    # the simulation-only model learned from the simulated femoral subjects alone
+    model = load_model(out / "sim_only" / "checkpoint.pt", "cpu")
+    assert sorted(model.config["train_subjects"]) == ["femoral/0", "femoral/1"]
+    assert model.config["augment"] and model.config["preset"]["augmentation"]["framing_p"] == 0.5
+    assert [Path(p).name for p in results["sweeps"]] == ["subject_00.h5", "subject_01.h5"]
+
+    # its score on every real image, counted independently from its own predictions
+    vessel = results["sim_only"]["pooled"]["vessel"]
+    assert (vessel["intersection"], vessel["union"]) == vessel_counts(model, real)
+    evaluation = json.loads((out / "sim_only" / "evaluation" / "metrics.json").read_text())
+    assert evaluation["pooled"]["vessel"] == vessel
+    assert len(list((out / "sim_only" / "evaluation" / "overlays").glob("*.png"))) == 20
+
+    # the curve: k = 0 is the simulation-only model on each split's own test images
+    points = results["curve"]
+    assert {(p["initialisation"], p["labels"]) for p in points} == {
+        (FROM_SIMULATION, 0),
+        (FROM_SIMULATION, 2),
+        (FROM_SIMULATION, 4),
+        (FROM_SCRATCH, 2),
+        (FROM_SCRATCH, 4),
+    }
+    assert len(points) == 2 * 5
+    for split in results["splits"]:
+        intersection, union = vessel_counts(model, real.subset(split["test"]))
+        zero = next(p for p in points if p["split"] == split["index"] and p["labels"] == 0)
+        assert zero["iou"] == pytest.approx(intersection / union)
+        assert not set(split["pool"]) & set(split["test"])
+
+    # a rerun keeps the sweeps it finds, made from the same phantom, subject, seed and scanner
+    stamps = [Path(p).stat().st_mtime_ns for p in results["sweeps"]]
+    assert simulate_subjects(out / "data" / "sweeps", TINY, 3, progress=False) == [
+        Path(p) for p in results["sweeps"]
+    ]
+    assert [Path(p).stat().st_mtime_ns for p in results["sweeps"]] == stamps
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda tmp: tmp / "none", "--real: {tmp}/none: no such folder"),
+        (
+            lambda tmp: write_real_folder(tmp / "few", 30),
+            "30 real images: the few-label curve needs 100",
+        ),
+    ],
+)
+def test_cli_refuses_a_real_folder_it_cannot_use(monkeypatch, capsys, tmp_path, make, message):
+    real = make(tmp_path)
+    status, _, err = run_main(
+        monkeypatch,
+        capsys,
+        "experiment",
+        "sim2real",
+        "--real",
+        str(real),
+        "--out",
+        str(tmp_path / "o"),
+    )
+    assert status == 2 and "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    assert message.format(tmp=tmp_path) in lines[0], lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_sweep_is_reused_only_from_the_same_phantom_subject_seed_and_scanner():
+    made = sweep_provenance(TINY, 1, 3)
+    assert made["phantom"] == "femoral" and made["subject"] == 1
+    assert made["scanner"].startswith("random-")
+    assert sweep_provenance(TINY, 1, 3) == made
+    assert sweep_provenance(TINY, 2, 3) != made and sweep_provenance(TINY, 1, 4) != made
+
+
+def test_cli_names_a_bad_training_preset(monkeypatch, capsys, tmp_path):
+    real = write_real_folder(tmp_path / "real", 4)
+    status, _, err = run_main(
+        monkeypatch,
+        capsys,
+        "experiment",
+        "sim2real",
+        "--real",
+        real,
+        "--out",
+        tmp_path / "o",
+        "--training",
+        "huge",
+    )
+    assert status == 2 and err.strip().splitlines() == [
+        "error: --training: unknown preset 'huge'; choose one of quick, cpu128, paper"
+    ]
