@@ -44,17 +44,12 @@ def _simulate_one(job: dict) -> tuple[str, int]:
 
 
 def sweep_scanner(name: str | None, seed: int | None, subject: int | None) -> ScannerPreset | None:
-    """The `--scanner` preset of one sweep: None for the simulator's own settings, a named
-    preset, `random-N`, or `random`: one drawn per sweep from the seed and the subject."""
-    from sim.ultrasound.scanner import random_preset, scanner_preset
-    from sim.ultrasound.scatterers import mix_seed
+    """The `--scanner` preset of one sweep (`sim.ultrasound.scanner.sweep_preset`), a bad
+    name reported under the flag."""
+    from sim.ultrasound.scanner import sweep_preset
 
-    if name is None:
-        return None
-    if name == "random":
-        return random_preset(int(mix_seed(seed or 0, -1 if subject is None else subject)))
     with flag_error("--scanner"):
-        return scanner_preset(name)
+        return sweep_preset(name, seed, subject)
 
 
 def simulate(
