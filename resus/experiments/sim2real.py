@@ -274,9 +274,12 @@ def few_label_curve(
     device: torch.device,
     example_count: int = 4,
     progress: bool = True,
-) -> tuple[list[RealSplit], list[CurvePoint], dict[tuple[str, int], list[np.ndarray]]]:
-    """Every (split, initialisation, k) fine-tuning, scored; with the labels each model gave
-    `example_count` of the first split's test images (`example_indices`), for the figure."""
+) -> tuple[
+    list[RealSplit], list[CurvePoint], FolderImages, dict[tuple[str, int], list[np.ndarray]]
+]:
+    """Every (split, initialisation, k) fine-tuning, scored; with `example_count` of the
+    first split's test images (`example_indices`) and the labels each model gave them, for
+    the figure."""
     preset = settings.training_preset()
     splits = real_splits(len(real), settings, seed)
     runs = [
@@ -286,11 +289,11 @@ def few_label_curve(
         for k in settings.label_counts
         if k > 0 or initialisation == FROM_SIMULATION
     ]
+    tests = [real.subset(split.test) for split in splits]
+    shown = example_indices(tests[0], example_count)
     points: list[CurvePoint] = []
     examples: dict[tuple[str, int], list[np.ndarray]] = {}
-    shown = example_indices(real.subset(splits[0].test), example_count)
     for split, initialisation, k in tqdm(runs, desc="few-label", unit="run", disable=not progress):
-        test = real.subset(split.test)
         if k == 0:
             model = sim_only
         else:
@@ -303,12 +306,12 @@ def few_label_curve(
                 seed=seed + 1000 * split.index + k,
                 device=device,
             )
-        evaluation, predicted = vessel_scores(model, test)
+        evaluation, predicted = vessel_scores(model, tests[split.index])
         pooled = evaluation.pooled()["vessel"]
         points.append(CurvePoint(initialisation, k, split.index, pooled.iou, pooled.dice))
         if split.index == 0:
             examples[(initialisation, k)] = [predicted[i] for i in shown]
-    return splits, points, examples
+    return splits, points, tests[0].subset(shown), examples
 
 
 # ---- the simulated side ----------------------------------------------------------------
@@ -450,7 +453,7 @@ def run_sim2real(
     sim_only = load_model(out / "sim_only" / "checkpoint.pt", torch_device)
     evaluate_folder(sim_only, real, out / "sim_only" / "evaluation", progress=progress)
     evaluation, _ = vessel_scores(sim_only, real)
-    splits, points, examples = few_label_curve(
+    splits, points, shown, examples = few_label_curve(
         real,
         sim_only,
         settings,
@@ -476,7 +479,5 @@ def run_sim2real(
         real_set,
         sources={"sweeps": f"{len(sweeps)} simulated subjects", "real": str(real_folder)},
     )
-    test = real.subset(splits[0].test)
-    shown = test.subset(example_indices(test, EXAMPLE_IMAGES))
     write_sim2real_report(out, result, comparison, shown, examples)
     return result
