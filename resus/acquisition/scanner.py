@@ -14,6 +14,7 @@ stops the robot, closes the Sweep with every frame recorded so far, and raises S
 from __future__ import annotations
 
 import bisect
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -50,7 +51,8 @@ class ScannerSettings:
     max_frame_latency: float = 0.5
     """How long after the path ends the scanner waits for late frames (s)."""
     progress: bool = True
-    """Show a progress bar."""
+    """Say on stderr what the robot is doing (approach, contact, lift-off) and show a progress
+    bar over the sweep."""
 
 
 @dataclass(frozen=True)
@@ -184,12 +186,18 @@ class Scanner:
         """Move above the start, then descend into contact (force mode) or onto the path."""
         start = trajectory.pose_at(0.0)
         settings = self.settings
+        self._say(
+            f"moving to {trajectory.approach_height * 1e3:.0f} mm above the start at "
+            f"{settings.approach_speed * 1e3:.0f} mm/s"
+        )
         self.robot.move_linear(
             trajectory.approach_pose(start), settings.approach_speed, settings.approach_acceleration
         )
         if trajectory.contact_force is None:
+            self._say("moving onto the path (position control)")
             self.robot.move_linear(start, settings.approach_speed, settings.approach_acceleration)
             return
+        self._say(f"pressing the probe on in force mode until {trajectory.contact_force:g} N hold")
         self.robot.force_mode(trajectory.contact_force)
         deadline = self.robot.time() + settings.settle_time
         settled_since = None
@@ -218,6 +226,11 @@ class Scanner:
         Each pass sends the target for the robot's elapsed time, so a loop that falls behind
         real time skips targets rather than stretching the sweep; after the last target the
         probe holds still until the frames still in flight have arrived.
+
+        The progress bar counts the sweep's seconds on the robot clock, with the frames
+        recorded beside them: a count of frames cannot have a total, since a probe may run
+        at another rate than the plan's (a video grabber) or skip frames while it is busy
+        (the synthetic probe's renderer beside a real-time robot).
         """
         robot, settings = self.robot, self.settings
         period = robot.control_period
@@ -229,12 +242,15 @@ class Scanner:
         start_time = robot.time()
         end_time = start_time + trajectory.duration
         pending: list[Frame] = []
-        # frames evenly spaced over [start, end], both ends included: at most this many
-        expected = int(np.floor(trajectory.duration * trajectory.frame_rate)) + 1
         with tqdm(
-            total=expected, unit="frame", desc="scanning", disable=not settings.progress
+            total=round(trajectory.duration, 2),
+            unit="s",
+            desc="scanning",
+            bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s [{elapsed}<{remaining}{postfix}]",
+            postfix="0 frames",
+            disable=not settings.progress,
         ) as bar:
-            sent, now = 0, start_time
+            sent, now, shown = 0, start_time, 0
             while True:
                 index = min(periods, max(sent, round((now - start_time) / period)))
                 elapsed = max(index - sent, 1) * period
@@ -246,8 +262,12 @@ class Scanner:
                 self._check_state()
                 pending.extend(self.probe.poll())
                 pending = self._write_covered(pending, history, recorded, start_time, end_time)
-                bar.update(recorded.frames - bar.n)
                 now = robot.time()
+                if settings.progress and recorded.frames != shown:
+                    shown, wall = recorded.frames, bar.format_dict["elapsed"]
+                    rate = f", {shown / wall:.1f} frames/s" if wall > 0 else ""
+                    bar.set_postfix_str(f"{shown} frames{rate}", refresh=False)
+                bar.update(min(now - start_time, bar.total) - bar.n)
                 if now >= end_time and (not pending or now > end_time + settings.max_frame_latency):
                     break
 
@@ -271,6 +291,7 @@ class Scanner:
 
     def _leave(self, trajectory: Trajectory) -> None:
         """End force mode and lift the probe off the tissue."""
+        self._say("lifting the probe off")
         if trajectory.contact_force is not None:
             self.robot.force_mode_stop()
         self.robot.move_linear(
@@ -278,6 +299,12 @@ class Scanner:
             self.settings.approach_speed,
             self.settings.approach_acceleration,
         )
+
+    def _say(self, message: str) -> None:
+        """One line on stderr about what the robot does next, when progress is shown: the
+        moves before and after the sweep take seconds (tens on a real arm) without a bar."""
+        if self.settings.progress:
+            tqdm.write(message, file=sys.stderr)
 
     def _check_state(self) -> None:
         """Raise if the robot reports a fault or the contact force is over the limit. The

@@ -82,7 +82,8 @@ def plan(
         bool, typer.Option(help="Also scan it in simulation and measure the holes.")
     ] = False,
 ) -> None:
-    """Plan a scan, check it (IK, limits, singularities, collisions, spacing, coverage, holes).
+    """Plan a scan, check it (IK, limits, singularities, collisions, the force of a simulated
+    scan, spacing, coverage, holes).
 
     Settings not given keep the pattern's defaults (`resus.acquisition.patterns`)."""
     given = {

@@ -246,9 +246,14 @@ def scan(
     scene_config = resolve_scene(scene, phantom, subject)
     probe_config = parse_probe(probe, plan.frame_rate, calibration, crop)
     simulated = isinstance(probe_config, SimulatedProbeConfig)
+    progress = sys.stderr.isatty()  # lines and a bar for a person, none in a log
     try:
         with contextlib.ExitStack() as viewer, contextlib.ExitStack() as devices:
+            if progress and robot != "sim":
+                print(f"connecting to the UR controller at {robot}", file=sys.stderr)
             robot_device = devices.enter_context(make_robot(parse_robot(robot, scene_config)))
+            if progress:  # the synthetic probe's renderer loads its kernels for seconds
+                print(f"starting the probe ({probe})", file=sys.stderr)
             probe_device = make_probe(probe_config, robot_device, scene_config)
             devices.callback(probe_device.close)
             offset = time_offset
@@ -256,7 +261,7 @@ def scan(
                 offset += robot_minus_probe_clock(robot_device)
             typer.echo(describe_plan(plan, trajectory, limits, robot_device.tcp_pose(), probe))
             settings = ScannerSettings(
-                time_offset=offset, approach_speed=approach_speed, progress=sys.stderr.isatty()
+                time_offset=offset, approach_speed=approach_speed, progress=progress
             )
             Scanner(robot_device, probe_device, limits, settings).check_plan(plan)
             confirm_motion(yes)

@@ -8,8 +8,9 @@ FAIL, where on the path it fails (time, arc length, waypoint) and what to change
 - `joint_path`: inverse kinematics along the path with one continuous solution.
 - `robot_checks`: reach, joint limits, IK branch flips, joint speeds, torques, singularities,
   collisions.
-- `imaging_checks`: safety limits, contact force, frame spacing, stationary or back-tracking
-  stretches.
+- `imaging_checks`: safety limits, frame spacing, stationary or back-tracking stretches.
+- `force`: the contact force a simulated scan of the plan reads (the emulator's servo and force
+  controller, a stream that stalls), and its check.
 - `coverage`: target vessels in the field of view.
 - `holes`: the expected hole fraction of the reconstruction grid.
 - `report`: Markdown and PNG report.

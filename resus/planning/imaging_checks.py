@@ -1,5 +1,5 @@
-"""Checks of the scan as imaging: safety limits, contact force, frame spacing, and stretches
-where the image plane stands still or moves backwards (the paper lost animals' data to both).
+"""Checks of the scan as imaging: safety limits, frame spacing, and stretches where the image
+plane stands still or moves backwards (the paper lost animals' data to both).
 
 Frame geometry is the probe's image rectangle at each frame pose; spacing is the largest
 distance any of its four corners moves from one frame to the next, so rocking counts at depth.
@@ -16,8 +16,6 @@ from resus.planning.sampling import FrameSamples, PathSamples
 from resus.reconstruction.grid import frame_corner_pixels, frame_points_world
 from sim.ultrasound.probe import LinearProbe
 
-MIN_CONTACT_FORCE = 1.0
-"""Least force (N) that keeps gel coupling under the probe."""
 STATIONARY_TIME = 1.0
 """A stretch this long (s) in which the image plane advances less than STATIONARY_ADVANCE
 voxels counts as standing still."""
@@ -51,24 +49,6 @@ def check_safety(trajectory: Trajectory, samples: PathSamples, limits: SafetyLim
         f"keep the speed <= {limits.max_speed} m/s, the contact force <= {limits.max_force} N "
         "and the path "
         "inside the workspace box",
-    )
-
-
-def check_contact_force(trajectory: Trajectory, limits: SafetyLimits) -> CheckResult:
-    """The contact force lies between MIN_CONTACT_FORCE and the safety limit."""
-    force = trajectory.contact_force
-    if force is None:
-        return CheckResult("contact force", True, "position control (no force held)")
-    summary = f"{force:.1f} N (bounds {MIN_CONTACT_FORCE:.0f}-{limits.max_force:.0f} N)"
-    if MIN_CONTACT_FORCE <= force <= limits.max_force:
-        return CheckResult("contact force", True, summary)
-    target = MIN_CONTACT_FORCE if force < MIN_CONTACT_FORCE else limits.max_force
-    return CheckResult(
-        "contact force",
-        False,
-        summary,
-        place_at(trajectory, 0.0),
-        f"set the contact force to {target:.0f} N",
     )
 
 

@@ -10,6 +10,7 @@ from resus.errors import ResusError
 from resus.planning import imaging_checks, robot_checks
 from resus.planning.checks import CheckResult
 from resus.planning.coverage import Coverage, analyse_coverage, check_coverage
+from resus.planning.force import ForceProfile, check_contact_force, simulate_force
 from resus.planning.holes import HoleEstimate, check_holes, default_radius_voxels, estimate_holes
 from resus.planning.robot_checks import RobotMotion, analyse_motion
 from resus.planning.sampling import FrameSamples, PathSamples
@@ -48,6 +49,7 @@ class PlanAnalysis:
     motion: RobotMotion
     coverage: Coverage
     holes: HoleEstimate
+    force: ForceProfile
     checks: list[CheckResult]
 
     @property
@@ -75,6 +77,7 @@ def check_plan(
         frames, phantom, scene.phantom_to_base, settings.probe, settings.targets
     )
     holes = estimate_holes(frames, settings.probe, settings.voxel_size, default_radius_voxels())
+    force = simulate_force(trajectory, scene, settings.limits)
     probe, voxel = settings.probe, settings.voxel_size
     checks = [
         robot_checks.check_reach(trajectory, path, motion, ur3e),
@@ -85,12 +88,12 @@ def check_plan(
         robot_checks.check_torques(trajectory, path, motion),
         robot_checks.check_collisions(trajectory, path, motion, ur3e),
         imaging_checks.check_safety(trajectory, path, settings.limits),
-        imaging_checks.check_contact_force(trajectory, settings.limits),
+        check_contact_force(trajectory, force, settings.limits),
         imaging_checks.check_frame_spacing(trajectory, frames, probe, voxel),
         imaging_checks.check_progress(trajectory, frames, probe, voxel),
         check_coverage(trajectory, frames, coverage, probe, scene.phantom_to_base),
         check_holes(trajectory, frames, holes),
     ]
     return PlanAnalysis(
-        trajectory, scene, phantom, settings, path, frames, motion, coverage, holes, checks
+        trajectory, scene, phantom, settings, path, frames, motion, coverage, holes, force, checks
     )

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from resus.acquisition.trajectory import Trajectory
 
@@ -29,6 +30,14 @@ class PathSamples:
         count = int(np.ceil(trajectory.duration / step)) + 1
         times = np.linspace(0.0, trajectory.duration, count)
         return cls(times, trajectory.poses_at(times))
+
+    def nearest(self, poses: np.ndarray, rotation_radius: float) -> np.ndarray:
+        """(N,) index of the sample nearest each of `poses` (N, 4, 4): the position offset
+        plus the rotation between them counted as arc at `rotation_radius`."""
+        offsets = np.linalg.norm(poses[:, None, :3, 3] - self.poses[None, :, :3, 3], axis=2)
+        relative = np.einsum("nji,tjk->ntik", poses[:, :3, :3], self.poses[:, :3, :3])
+        turns = Rotation.from_matrix(relative.reshape(-1, 3, 3)).magnitude()
+        return np.argmin(offsets + rotation_radius * turns.reshape(offsets.shape), axis=1)
 
 
 @dataclass(frozen=True)

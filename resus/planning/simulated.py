@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from resus.acquisition.backends.simulated import SimulatedProbeConfig
 from resus.acquisition.simulation import simulate_sweep
@@ -48,12 +47,7 @@ def imaging_segments_of_poses(trajectory: Trajectory, poses: np.ndarray) -> np.n
     """Imaging segment (-1: transit) of recorded poses, by the nearest planned sample."""
     samples = PathSamples.of(trajectory)
     segment = trajectory.imaging_segment_at(samples.times)
-    offsets = np.linalg.norm(poses[:, None, :3, 3] - samples.poses[None, :, :3, 3], axis=2)
-    turns = Rotation.from_matrix(
-        np.einsum("nji,tjk->ntik", poses[:, :3, :3], samples.poses[:, :3, :3]).reshape(-1, 3, 3)
-    ).magnitude()
-    distance = offsets + trajectory.rotation_radius * turns.reshape(offsets.shape)
-    return segment[np.argmin(distance, axis=1)]
+    return segment[samples.nearest(poses, trajectory.rotation_radius)]
 
 
 def simulate_plan(

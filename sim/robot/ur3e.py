@@ -31,12 +31,14 @@ from sim.robot.force_mode import (
     check_force_mode_arguments,
 )
 from sim.robot.motions import (
+    JOINT,
+    LINEAR,
     CartesianVelocity,
     JointDeceleration,
     JointPath,
-    JointServo,
     LinearPath,
     Motion,
+    Servo,
 )
 from sim.robot.scene import build_scene, load_scene_phantom
 from sim.robot.scene_config import SceneConfig
@@ -257,19 +259,18 @@ class SimulatedUR3e:
         """servoJ: stream a joint target, reached over `time`, smoothed by `lookahead_time`."""
         self._check_ready()
         joints = _checked_joints(joints, "servo_joint")
-        self._servo_command(joints, time, lookahead_time)
+        self._servo_command(JOINT, joints, time, lookahead_time)
 
     def servo_linear(
         self, pose: np.ndarray, time: float = CONTROL_PERIOD, lookahead_time: float = 0.1
     ) -> None:
-        """servoL: stream a TCP pose target (base frame 4x4); joints by inverse kinematics."""
+        """servoL: stream a TCP pose target (base frame 4x4), smoothed in tool space (the RTDE
+        emulator's servo, `motions.Servo`); joints by inverse kinematics every period."""
         self._check_ready()
         goal = self._check_pose(pose, "servo_linear")
-        seed = self._motion.target if isinstance(self._motion, JointServo) else self._q_ref
-        joints = self._inverse(goal, seed)
-        if joints is None:
+        if self._inverse(goal, self._q_ref) is None:
             raise ValueError("servo_linear: target pose is out of reach")
-        self._servo_command(joints, time, lookahead_time)
+        self._servo_command(LINEAR, goal, time, lookahead_time)
 
     def speed_linear(self, velocity: np.ndarray, acceleration: float = 0.25) -> None:
         """speedL: TCP velocity [vx, vy, vz, wx, wy, wz] (m/s, rad/s, base frame), held until
@@ -419,14 +420,17 @@ class SimulatedUR3e:
 
     # ----------------------------------------------------------------- helpers
 
-    def _servo_command(self, joints: np.ndarray, time: float, lookahead_time: float) -> None:
+    def _servo_command(
+        self, space: str, target: np.ndarray, time: float, lookahead_time: float
+    ) -> None:
         if not time > 0 or not lookahead_time >= 0:
             raise ValueError(
                 f"servo time must be > 0 and lookahead_time >= 0, got {time}, {lookahead_time}"
             )
-        if not isinstance(self._motion, JointServo):
-            self._motion = JointServo(self._q_ref, self.time())
-        self._motion.command(joints, self.time(), time, lookahead_time)
+        if not (isinstance(self._motion, Servo) and self._motion.space == space):
+            start = self._q_ref if space == JOINT else self._reference_tcp_pose()
+            self._motion = Servo(space, start)
+        self._motion.command(target, time, lookahead_time)
 
     def _check_pose(self, pose: np.ndarray, command: str) -> np.ndarray:
         pose = np.asarray(pose, dtype=np.float64)

@@ -19,17 +19,10 @@ from typing import Any
 
 import numpy as np
 
+from sim.robot.motions import JOINT, LINEAR
 from sim.rtde import commands as cmd
 from sim.rtde.arm import EmulatedArm
-from sim.rtde.motion import (
-    JOINT,
-    LINEAR,
-    Motion,
-    ProfiledMove,
-    ServoTarget,
-    VelocityMove,
-    twist_between,
-)
+from sim.rtde.motion import Motion, ProfiledMove, ServoTarget, VelocityMove, twist_between
 from sim.transforms import pose_from_ur, pose_to_ur
 
 log = logging.getLogger("sim.rtde")

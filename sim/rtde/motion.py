@@ -5,7 +5,8 @@ trapezoidal profile (`sim.robot.motions`' JointPath and LinearPath, shared with 
 robot); speedJ/speedL ramp to a velocity and hold it and stopJ/stopL/servoStop brake to rest
 (`VelocityMove`, in either space, starting from the arm's actual velocity so that a stop
 continues whatever motion ran before); servoJ/servoL follow the client's latest target as UR's
-servo does, over the command's servo time and smoothed by its lookahead time (`ServoTarget`).
+servo does, over the command's servo time and smoothed by its lookahead time (`ServoTarget`,
+the simulated robot's own servo model).
 `advance(dt)` gives the next target: joints (6,) or a TCP pose (4x4).
 """
 
@@ -16,23 +17,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from sim.robot.motions import JointPath, LinearPath, rotation_exp
-
-JOINT = "joint"
-LINEAR = "linear"
-
-
-def rotation_vector(rotation: np.ndarray) -> np.ndarray:
-    """The rotation vector (axis times angle, rad) of a rotation matrix turned by under pi."""
-    skew = np.array(
-        [
-            rotation[2, 1] - rotation[1, 2],
-            rotation[0, 2] - rotation[2, 0],
-            rotation[1, 0] - rotation[0, 1],
-        ]
-    )
-    angle = np.arccos(np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0))
-    return (0.5 if angle < 1e-9 else angle / (2.0 * np.sin(angle))) * skew
+from sim.robot.motions import JOINT, JointPath, LinearPath, Servo, rotation_vector
 
 
 def twist_between(start: np.ndarray, end: np.ndarray, dt: float) -> np.ndarray:
@@ -131,61 +116,11 @@ class VelocityMove(Motion):
         return self.target.copy()
 
 
-def blend(space: str, start: np.ndarray, end: np.ndarray, weight: float) -> np.ndarray:
-    """The point `weight` (0..1) of the way from `start` to `end`: linear for joints; for TCP
-    poses linear in position and along the shortest rotation between the orientations."""
-    if space == JOINT:
-        return start + weight * (end - start)
-    result = end.copy()
-    result[:3, 3] = start[:3, 3] + weight * (end[:3, 3] - start[:3, 3])
-    turn = rotation_vector(start[:3, :3].T @ end[:3, :3])
-    result[:3, :3] = start[:3, :3] @ rotation_exp(weight * turn)
-    return result
-
-
-class ServoTarget(Motion):
-    """servoJ / servoL: the client's latest target, followed as UR's servo follows a stream.
-
-    Each new target is approached linearly over the command's servo `time`, and that path is
-    smoothed by a first-order filter with the command's `lookahead_time` as time constant,
-    the model `sim.robot.motions.JointServo` uses for the simulated robot's own servo. So a
-    target that arrives late and lands many periods ahead (a client on a loaded machine skips
-    targets to keep to the plan's clock) moves the arm smoothly instead of by a step within
-    one period: in contact with the phantom such a step spikes the force, and an arm still
-    settling from it goes on moving for tens of milliseconds after a stop.
-    """
-
-    def __init__(self, space: str, start: np.ndarray) -> None:
-        """Start at rest at `start` (the arm's actual joints or TCP pose)."""
-        self.space = space
-        self.setpoint = np.array(start, dtype=np.float64)
-        self.previous = self.setpoint.copy()
-        self.target = self.setpoint.copy()
-        self.elapsed = self.duration = self.lookahead = 0.0
-
-    def command(self, target: np.ndarray, duration: float, lookahead: float) -> None:
-        """A streamed target, reached over `duration` and smoothed over `lookahead` (s). The
-        controller reads the registers every cycle: a repeat of the current command changes
-        nothing."""
-        target = np.asarray(target, dtype=np.float64)
-        if (
-            np.array_equal(target, self.target)
-            and duration == self.duration
-            and lookahead == self.lookahead
-        ):
-            return
-        self.previous = self._interpolated()
-        self.target = target.copy()
-        self.elapsed, self.duration, self.lookahead = 0.0, max(duration, 0.0), max(lookahead, 0.0)
-
-    def _interpolated(self) -> np.ndarray:
-        if self.elapsed >= self.duration:
-            return self.target
-        return blend(self.space, self.previous, self.target, self.elapsed / self.duration)
-
-    def advance(self, dt: float) -> np.ndarray:
-        self.elapsed += dt
-        self.setpoint = blend(
-            self.space, self.setpoint, self._interpolated(), dt / (self.lookahead + dt)
-        )
-        return self.setpoint.copy()
+class ServoTarget(Servo, Motion):
+    """servoJ / servoL: the client's latest target, followed by the simulated robot's own
+    servo model (`sim.robot.motions.Servo`: linear over the servo time, smoothed to second
+    order over the lookahead time). So a target that arrives late and lands many periods
+    ahead (a client on a loaded machine skips targets to keep to the plan's clock) moves the
+    arm smoothly instead of by a step within one period: in contact with the phantom such a
+    step spikes the force, and an arm still settling from it goes on moving for tens of
+    milliseconds after a stop."""

@@ -133,3 +133,26 @@ def test_zig_zag_within_a_sweep_fails_progress_at_the_reversal(default_scene) ->
     times = np.linspace(0, zig.duration, 20001)
     turn = times[np.searchsorted(zig.arc_length_at(times), 0.04)]
     assert progress.place.time == pytest.approx(turn, abs=1 / 30 + 1e-6)
+
+
+def test_the_force_check_runs_the_plan_and_fails_a_fan_pressed_too_hard(default_scene) -> None:
+    """The force check scans the plan on the simulated UR3e (the emulator's servo and force
+    controller, a stream that stalls like a busy host's): pressing 18 N, a linear sweep peaks
+    under the 20 N limit, but a fan, whose probe rocks about its face, is stopped at the limit
+    during its rocking. A check of the set force alone passed both."""
+    scene, phantom = default_scene
+    linear = check_plan(
+        linear_sweep(phantom, scene.phantom_to_base, length=0.02, contact_force=18.0),
+        scene,
+        phantom,
+    )
+    assert linear.check("contact force").passed, linear.check("contact force").line()
+    assert 18.0 < linear.force.forces.max() < 20.0
+    fan = fan_sweep(phantom, scene.phantom_to_base, contact_force=18.0)
+    analysis = check_plan(fan, scene, phantom)
+    assert failing(analysis) == {"contact force"}
+    force = analysis.check("contact force")
+    assert "the simulated scan stopped: contact force" in force.summary
+    assert "exceeds the limit 20.0 N" in force.summary and "rock more slowly" in force.advice
+    assert analysis.force.forces.max() > 20.0
+    assert 0.0 < force.place.time < fan.duration  # while rocking, not pressing on

@@ -8,12 +8,21 @@ TCP pose (in the phantom frame) and time to the worker and returns at once; fini
 come back later, stamped with the robot time of their pose, and the scanner pairs them like
 any late frame. While the worker is busy, due frames are skipped, so the frame rate drops to
 what rendering sustains instead of frames piling up.
+
+The worker ignores SIGINT: Ctrl-C at a terminal reaches the whole foreground process group,
+and a worker that took it died with a KeyboardInterrupt traceback on the user's terminal
+beside the scan's one `error: scan stopped: interrupted` line. The scan process handles
+Ctrl-C, and ends the worker with `close()`.
 """
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import queue
+import signal
+import threading
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -47,6 +56,22 @@ def _render_loop(spec: PhantomSpec, config: SimulatedProbeConfig, requests, resu
         results.put((time, image, label))
 
 
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored while a child process starts: the child inherits the ignored signal
+    through exec, and Python keeps an ignored SIGINT ignored (no KeyboardInterrupt), from its
+    first instruction on. Only the main thread may change signal handlers: a probe opened
+    from another thread starts its worker as it is."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 class RenderProcessProbe(SyntheticProbe):
     """Synthetic ultrasound of the scene's phantom at `robot`'s reported pose, rendered in a
     worker process; frames are stamped on the robot clock."""
@@ -72,7 +97,8 @@ class RenderProcessProbe(SyntheticProbe):
             name="probe-render",
             daemon=True,
         )
-        self._worker.start()
+        with _sigint_ignored():
+            self._worker.start()
         try:
             ready = self._results.get(timeout=START_TIMEOUT)
         except queue.Empty:

@@ -21,6 +21,7 @@ import contextlib
 import faulthandler
 import logging
 import os
+import pickle
 import select
 import signal
 import socket
@@ -113,12 +114,16 @@ class RTDELink:
         )
         os.close(log_fd)
         theirs.close()
+        # Non-blocking: a message is read only once `poll` shows it, and the child writes
+        # each one whole, so a read that would block means a stream out of step (see `call`).
+        ours.setblocking(False)
         self._connection = Connection(ours.detach())
-        self._pending = True
+        self._requests = 0
+        """Requests sent; the child's answer to request n carries n (its connect answer 0)."""
         self.lost = False
         """True once the child died or the link broke: it is killed, not asked, on close."""
         try:
-            self._reply(CONNECT_TIMEOUT)
+            self._reply(0, CONNECT_TIMEOUT)
         except RuntimeError as error:
             self.close()
             raise RobotFault(f"cannot connect to the UR controller at {host}: {error}") from None
@@ -133,35 +138,43 @@ class RTDELink:
 
     def call(self, operation: str, *arguments: object) -> Any:
         """Run one `_Session` operation in the child and return its result. RuntimeError
-        with ur_rtde's message when it raised; RobotFault(LINK_LOST) when the child died."""
+        with ur_rtde's message when it raised; RobotFault(LINK_LOST) when the child died.
+
+        Ctrl-C (KeyboardInterrupt) can strike anywhere in here: while waiting (a moveL blocks
+        for the whole move), but also just after a request went out or an answer came in,
+        where Python checks for signals as a call returns. Counting requests in flight broke
+        there: a request sent but not counted left its answer to be taken for the next
+        request's (a `TypeError` traceback after the scan's own line), and an answer read but
+        not counted had the next call wait for an answer that never came (a hung scan). So
+        each request carries its number and the answers to interrupted requests are skipped.
+        """
         if self.lost:
             raise RobotFault(LINK_LOST)
-        if self._pending:  # a request interrupted by Ctrl-C: its reply comes first
-            with contextlib.suppress(RuntimeError):
-                self._reply()
+        self._requests += 1
         try:
-            self._connection.send((operation, arguments))
+            self._connection.send((self._requests, operation, arguments))
         except OSError:
             self._lose(self._ending())
             raise RobotFault(LINK_LOST) from None
-        self._pending = True
-        return self._reply()
+        return self._reply(self._requests)
 
-    def _reply(self, timeout: float | None = None) -> Any:
-        """Wait for the answer to the request in flight (as long as the child lives)."""
+    def _reply(self, number: int, timeout: float | None = None) -> Any:
+        """Wait for the answer to request `number` (as long as the child lives), skipping
+        those of requests that Ctrl-C interrupted."""
         deadline = None if timeout is None else time.monotonic() + timeout
-        while not self._connection.poll(POLL_INTERVAL):
-            if self._process.poll() is not None:
-                break  # what it sent before it ended is still read; then EOFError
-            if deadline is not None and time.monotonic() > deadline:
-                self._lose(f"no answer within {timeout} s")
-                raise RobotFault(LINK_LOST)
-        try:
-            status, value = self._connection.recv()
-        except (EOFError, OSError):
-            self._lose(self._ending())
-            raise RobotFault(LINK_LOST) from None
-        self._pending = False
+        answered = None
+        while answered != number:
+            while not self._connection.poll(POLL_INTERVAL):
+                if self._process.poll() is not None:
+                    break  # what it sent before it ended is still read; then EOFError
+                if deadline is not None and time.monotonic() > deadline:
+                    self._lose(f"no answer within {timeout} s")
+                    raise RobotFault(LINK_LOST)
+            try:
+                answered, status, value = self._connection.recv()
+            except (EOFError, OSError, pickle.UnpicklingError):  # OSError: out of step
+                self._lose(self._ending())
+                raise RobotFault(LINK_LOST) from None
         if status == "error":
             self._log_output()
             raise RuntimeError(value)
@@ -208,11 +221,11 @@ class RTDELink:
     def close(self) -> None:
         """Disconnect and end the child; kill it at once after a lost link. Safe twice."""
         if self._process.poll() is None:
-            if not self.lost and not self._pending:
-                with contextlib.suppress(OSError, EOFError):
-                    self._connection.send(("close", ()))
-                    if self._connection.poll(CLOSE_TIMEOUT):
-                        self._connection.recv()
+            if not self.lost:  # behind a request Ctrl-C interrupted: answered after it
+                with contextlib.suppress(OSError, RuntimeError, RobotFault):
+                    self._requests += 1
+                    self._connection.send((self._requests, "close", ()))
+                    self._reply(self._requests, CLOSE_TIMEOUT)
                 with contextlib.suppress(subprocess.TimeoutExpired):
                     self._process.wait(timeout=CLOSE_TIMEOUT)
             if self._process.poll() is None:
@@ -246,22 +259,22 @@ def _serve(connection: Connection, host: str, frequency: float) -> None:
     try:
         session = _Session(host, frequency)
     except Exception as error:  # the process boundary: reported, not lost
-        connection.send(("error", str(error) or type(error).__name__))
+        connection.send((0, "error", str(error) or type(error).__name__))
         return
-    connection.send(("ok", None))
+    connection.send((0, "ok", None))
     while True:
         try:
-            operation, arguments = connection.recv()
+            number, operation, arguments = connection.recv()
         except EOFError:
             break
         if operation == "close":
             session.disconnect()
-            connection.send(("ok", None))
+            connection.send((number, "ok", None))
             break
         try:
-            connection.send(("ok", getattr(session, operation)(*arguments)))
+            connection.send((number, "ok", getattr(session, operation)(*arguments)))
         except Exception as error:  # the process boundary
-            connection.send(("error", str(error) or type(error).__name__))
+            connection.send((number, "error", str(error) or type(error).__name__))
 
 
 class _Session:
