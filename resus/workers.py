@@ -1,7 +1,7 @@
-"""Worker processes, in one place: how many cores there are, and a parallel map over them.
+"""How many cores this process may use, and the old name of the local engine's map.
 
-Workers are spawned, not forked: MuJoCo, numba and torch hold threads and state that a
-forked child would inherit half-initialised.
+Where units run is `resus.execution`'s business (worker processes of this machine, or Ray);
+`map_in_processes` is `LocalExecutor.map`, for callers not yet given an executor.
 """
 
 from __future__ import annotations
@@ -29,19 +29,8 @@ def map_in_processes(
     unit: str,
     progress: bool = True,
 ) -> list[Result]:
-    """`function(item)` for every item, in order, `jobs` spawned processes at a time, with a
-    progress bar; with `jobs <= 1` or a single item, in this process.
+    """`function(item)` for every item, in order, on `LocalExecutor(jobs)` (in this process
+    when `jobs <= 1` or there is one item)."""
+    from resus.execution.local import LocalExecutor
 
-    `function` must be importable at module level (the workers import it by name).
-    """
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    from tqdm import tqdm
-
-    bar = {"total": len(items), "desc": desc, "unit": unit, "disable": not progress}
-    if jobs <= 1 or len(items) <= 1:
-        return [function(item) for item in tqdm(items, **bar)]
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=min(jobs, len(items)), mp_context=context) as pool:
-        return list(tqdm(pool.map(function, items), **bar))
+    return LocalExecutor(max(1, jobs)).map(function, items, desc, unit, progress=progress)

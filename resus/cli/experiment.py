@@ -1,18 +1,27 @@
-"""`resus experiment phantom|subjects`: the paper's Tables I and II, in simulation."""
+"""`resus experiment phantom|subjects`: the paper's Tables I and II, in simulation.
+
+Every command of the group takes the same run options (`--out`, `--data`, `--seed`,
+`--device`, `--jobs`, `--executor`, `--address`), turned into `RunOptions` by `run_options`.
+"""
 
 from __future__ import annotations
 
 import shlex
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from resus.cli.executor_options import AddressOption, ExecutorOption, check_executor_flags
 from resus.cli.parsers import flag_error, parse_index_set, parse_names
 from resus.errors import ResusError
 
+if TYPE_CHECKING:
+    from resus.experiments.tables import RunOptions
+
 REGIME_HELP = "Comma list of us, imagenet, aug, resus (imagenet needs --weights)."
+JOBS_HELP = "Local worker processes (or the CPUs of a Ray started here)."
 
 
 def parse_subjects(text: str) -> list[int]:
@@ -26,15 +35,34 @@ def parse_subjects(text: str) -> list[int]:
     return subjects
 
 
-def _options(out: Path, data: Path | None, seed: int, device: str, jobs: int):
+def run_options(
+    out: Path,
+    data: Path | None,
+    seed: int,
+    device: str,
+    jobs: int,
+    executor: str = "local",
+    address: str | None = None,
+) -> RunOptions:
+    """The flags every experiment takes, checked (before any work) and as `RunOptions`."""
     from resus.experiments.tables import RunOptions
 
     if out.exists() and not out.is_dir():
         raise ResusError("--out: is a file, expected a folder", out)
     if jobs < 1:
         raise ResusError(f"--jobs must be at least 1, got {jobs}")
+    check_executor_flags(executor, address)
     command = shlex.join(["resus", *sys.argv[1:]]) if sys.argv else "resus experiment"
-    return RunOptions(out, data or out / "data", seed, device, jobs, command)
+    return RunOptions(
+        out,
+        data or out / "data",
+        seed,
+        device,
+        jobs,
+        command,
+        executor=executor,
+        address=address,
+    )
 
 
 def register(app: typer.Typer) -> None:
@@ -57,14 +85,17 @@ def register(app: typer.Typer) -> None:
         ] = None,
         seed: Annotated[int, typer.Option(help="First training seed.")] = 0,
         device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
-        jobs: Annotated[int, typer.Option(help="Processes preparing data.")] = 2,
+        jobs: Annotated[int, typer.Option(help=JOBS_HELP)] = 2,
+        executor: ExecutorOption = "local",
+        address: AddressOption = None,
     ) -> None:
         """Table I: train on phantom scan A (frames vs frames + reslices), test on scan B."""
         from resus.experiments.tables import get_experiment_preset, run_phantom_experiment
 
+        options = run_options(out, data, seed, device, jobs, executor, address)
         with flag_error("--preset"):
             settings = get_experiment_preset(preset)
-        results = run_phantom_experiment(settings, _options(out, data, seed, device, jobs))
+        results = run_phantom_experiment(settings, options)
         for trained_on, row in results.iou.items():
             cells = ", ".join(f"{test} {iou.mean:.3f}" for test, iou in row.items())
             typer.echo(f"trained on {trained_on}: tested on {cells}")
@@ -87,17 +118,21 @@ def register(app: typer.Typer) -> None:
         ] = None,
         seed: Annotated[int, typer.Option(help="Training seed.")] = 0,
         device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
-        jobs: Annotated[int, typer.Option(help="Processes preparing data.")] = 2,
+        jobs: Annotated[int, typer.Option(help=JOBS_HELP)] = 2,
+        executor: ExecutorOption = "local",
+        address: AddressOption = None,
     ) -> None:
         """Table II: leave-one-subject-out over simulated subjects, per regime, with t-tests."""
         from resus.experiments.tables import get_experiment_preset, run_subjects_experiment
-        from resus.segmentation.loso import REGIMES
 
+        options = run_options(out, data, seed, device, jobs, executor, address)
         with flag_error("--preset"):
             settings = get_experiment_preset(preset)
+        from resus.segmentation.loso import REGIMES  # torch: after the quick checks
+
         results = run_subjects_experiment(
             settings,
-            _options(out, data, seed, device, jobs),
+            options,
             None if subjects is None else parse_subjects(subjects),
             parse_names(regimes, "--regimes", REGIMES),
             weights,

@@ -1,12 +1,19 @@
-"""`resus simulate`: scan a simulated phantom with the simulated UR3e, write Sweeps."""
+"""`resus simulate`: scan a simulated phantom with the simulated UR3e, write Sweeps.
+
+With `--subjects`, every subject's sweep is a unit on an executor (worker processes here, or
+Ray), recorded when it finishes in `OUT/.done/` with the settings it was made with, so a
+rerun of the same command makes only the sweeps that are missing.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from resus.cli.executor_options import AddressOption, ExecutorOption, check_executor_flags
 from resus.cli.options import (
     IgtlHostOption,
     IgtlPortOption,
@@ -18,7 +25,11 @@ from resus.cli.parsers import flag_error, parse_index_set, parse_numbers
 from resus.errors import ResusError
 
 if TYPE_CHECKING:
+    from resus.execution import Executor, UnitRecord
     from sim.ultrasound.scanner import ScannerPreset
+
+DONE_FOLDER = ".done"
+"""Under a --subjects output folder: one record per finished sweep."""
 
 
 def _simulate_one(job: dict) -> tuple[str, int]:
@@ -83,7 +94,11 @@ def simulate(
         ),
     ] = None,
     preview: Annotated[Path | None, typer.Option(help="Also save a contact sheet PNG.")] = None,
-    jobs: Annotated[int, typer.Option(min=1, help="Worker processes for --subjects.")] = 2,
+    jobs: Annotated[
+        int, typer.Option(min=1, help="Worker processes for --subjects, or a local Ray's CPUs.")
+    ] = 2,
+    executor: ExecutorOption = "local",
+    address: AddressOption = None,
     igtl: IgtlPortOption = None,
     igtl_host: IgtlHostOption = "127.0.0.1",
 ) -> None:
@@ -107,6 +122,7 @@ def simulate(
     else:
         raise ResusError("--trajectory: neither 'linear' nor an existing file", trajectory)
     sweep_scanner(scanner, seed, subject)  # a bad name fails here, before any work
+    check_executor_flags(executor, address)
     base = {
         "scene": scene,
         "phantom": phantom,
@@ -116,6 +132,9 @@ def simulate(
     }
     if igtl is not None and subjects is not None:
         raise ResusError("--igtl streams one sweep: not with --subjects")
+    if subjects is None and executor != "local":
+        raise ResusError(f"--executor {executor} runs the sweeps of --subjects: one runs here")
+    kept: list[Path] = []
     if subjects is None:
         if not out.parent.is_dir():
             raise ResusError("output folder does not exist", out.parent)
@@ -127,9 +146,16 @@ def simulate(
                 _simulate_one({**job, "listeners": [server]})
         outputs = [out]
     else:
-        outputs = _simulate_many(base, parse_index_set(subjects, "--subjects"), out, jobs)
+        from resus.execution import make_executor
+
+        numbers = parse_index_set(subjects, "--subjects")
+        with make_executor(executor, jobs, address) as engine:
+            outputs, kept = _simulate_many(base, numbers, out, engine)
     for path in outputs:
-        typer.echo(f"wrote {path}")
+        if path in kept:
+            typer.echo(f"kept {path} (made earlier, same settings)")
+        else:
+            typer.echo(f"wrote {path}")
     if preview is not None:
         from resus.sweep.io import SweepReader
         from resus.sweep.preview import save_contact_sheet
@@ -154,17 +180,37 @@ def _igtl_server(port: int, host: str):
     return server
 
 
-def _simulate_many(base: dict, subjects: list[int], folder: Path, jobs: int) -> list[Path]:
-    """One sweep per subject into `folder`, `jobs` processes at a time."""
-    from resus.workers import map_in_processes
+def _simulate_many(
+    base: dict, subjects: list[int], folder: Path, executor: Executor
+) -> tuple[list[Path], list[Path]]:
+    """One sweep per subject into `folder`, each a unit on `executor` unless an earlier run
+    made it with the same settings: every sweep's path, and those that were kept."""
+    from resus.execution import run_pending
 
     folder.mkdir(parents=True, exist_ok=True)
-    work = [
-        {**base, "subject": k, "out": folder / f"subject_{k:02d}.h5", "progress": False}
-        for k in subjects
-    ]
-    done = map_in_processes(_simulate_one, work, jobs, desc="subjects", unit="sweep")
-    return [Path(path) for path, _ in done]
+    units = []
+    for k in subjects:
+        job = {**base, "subject": k, "out": folder / f"subject_{k:02d}.h5", "progress": False}
+        units.append((job, _sweep_record(job, folder / DONE_FOLDER / f"subject_{k:02d}.json")))
+    kept = [job["out"] for job, record in units if record.done()]
+    run_pending(executor, _simulate_one, units, "subjects", "sweep")
+    return [job["out"] for job, _ in units], kept
+
+
+def _sweep_record(job: dict, path: Path) -> UnitRecord:
+    """The record of one sweep of `--subjects`: everything the sweep depends on (a file's
+    text with its path: a plan edited in place makes a new sweep)."""
+    from resus.execution import UnitRecord
+
+    def value(setting: object) -> object:
+        if dataclasses.is_dataclass(setting) and not isinstance(setting, type):
+            return dataclasses.asdict(setting)
+        if isinstance(setting, str) and Path(setting).is_file():
+            return {"path": setting, "text": Path(setting).read_text()}
+        return setting
+
+    names = ("scene", "phantom", "trajectory", "subject", "seed", "scanner")
+    return UnitRecord(path, {name: value(job[name]) for name in names}, (job["out"],))
 
 
 def register(app: typer.Typer) -> None:

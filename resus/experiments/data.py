@@ -2,7 +2,8 @@
 
 One scan = one simulated linear sweep of a phantom subject (`sweep.h5`), its SDW volume and
 label volume (`volume.nrrd`, `labels.nrrd`) and the reslices of that volume (`reslices.h5`),
-all in one folder. Scans are prepared in worker processes (spawn), one per core by default.
+all in one folder. Scans are independent units, prepared by an executor (`resus.execution`):
+worker processes of this machine, one per core by default, or a Ray cluster.
 
 Every stage is cached: a folder's `scan.json` records the settings each stage ran with, and a
 stage whose files exist and whose recorded settings equal the requested ones is skipped. The
@@ -13,16 +14,15 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import multiprocessing
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
+from resus.execution import Executor, limit_numba_threads, make_executor, read_json, write_json
 from resus.reconstruction.compounding import ReconstructionSettings
 from resus.reslicing.reslice import ResliceSettings
-from resus.workers import available_cores, map_in_processes
 from sim.labels import LABEL_NAMES
 
 GRIDS = ("ransac", "aabb")
@@ -95,10 +95,11 @@ def prepare_subjects(
     *,
     jobs: int = 2,
     progress: bool = True,
+    executor: Executor | None = None,
 ) -> list[SubjectData]:
     """Prepare one scan per phantom subject in `folder/subject_KK/` (see `prepare_scans`)."""
     scans = [Scan(f"subject_{k:02d}", k) for k in subjects]
-    return prepare_scans(folder, scans, settings, jobs=jobs, progress=progress)
+    return prepare_scans(folder, scans, settings, jobs=jobs, progress=progress, executor=executor)
 
 
 def prepare_scans(
@@ -108,8 +109,10 @@ def prepare_scans(
     *,
     jobs: int = 2,
     progress: bool = True,
+    executor: Executor | None = None,
 ) -> list[SubjectData]:
-    """Simulate, reconstruct and reslice every scan (cached), `jobs` processes at a time."""
+    """Simulate, reconstruct and reslice every scan (cached), one unit per scan that is not:
+    on `executor`, or else `jobs` worker processes of this machine."""
     settings = settings or ScanSettings()
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
@@ -118,25 +121,20 @@ def prepare_scans(
         raise ResusError("scan names must be unique")
     folder.mkdir(parents=True, exist_ok=True)
     work = [
-        (folder / scan.name, scan, settings, max(1, jobs))
+        (folder / scan.name, scan, settings)
         for scan in scans
         if stale_stages(folder / scan.name, scan, settings)
     ]
-    map_in_processes(_prepare_in_worker, work, jobs, "scans", "scan", progress=progress)
+    if work:  # a local executor holds nothing between maps: no need to close one made here
+        engine = executor or make_executor("local", max(1, jobs))
+        engine.map(_prepare_in_worker, work, "scans", "scan", progress=progress)
     return [_with_subject(_files(folder / scan.name)) for scan in scans]
 
 
-def _prepare_in_worker(job: tuple[Path, Scan, ScanSettings, int]) -> None:
-    """`prepare_scan` of one of `jobs` parallel scans; in a worker process (not when
-    `map_in_processes` runs it in this one), its numba threads a fair share of the cores."""
-    out, scan, settings, jobs = job
-    if multiprocessing.parent_process() is not None:
-        import numba
-
-        share = available_cores() // jobs
-        threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # set at import
-        numba.set_num_threads(max(1, min(threads, share)))
-    prepare_scan(out, scan, settings)
+def _prepare_in_worker(job: tuple[Path, Scan, ScanSettings]) -> None:
+    """`prepare_scan` as a unit: in a worker, numba threads only the cores it was granted."""
+    limit_numba_threads()
+    prepare_scan(*job)
 
 
 def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:
@@ -155,7 +153,7 @@ def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:
 def stale_stages(out: Path, scan: Scan, settings: ScanSettings) -> list[str]:
     """Stages of `scan` in folder `out` that must (re)run: the first one whose files are
     missing or whose recorded settings differ, and every stage after it."""
-    record = _read_record(Path(out) / RECORD)
+    record = read_json(Path(out) / RECORD)
     data = _files(Path(out))
     outputs = {
         "simulate": [data.sweep],
@@ -177,12 +175,17 @@ def prepare_scan(out: Path, scan: Scan, settings: ScanSettings) -> SubjectData:
     steps = {"simulate": _simulate, "reconstruct": _reconstruct, "reslice": _reslice}
     wanted = stage_settings(scan, settings)
     for stage in stale_stages(out, scan, settings):
-        record = _read_record(out / RECORD)
+        record = read_json(out / RECORD)
         record.pop(stage, None)
-        _write_record(out / RECORD, record)
+        write_json(out / RECORD, record)
         steps[stage](data, scan, settings)
-        _write_record(out / RECORD, {**record, stage: wanted[stage]})
+        write_json(out / RECORD, {**record, stage: wanted[stage]})
     return _with_subject(data)
+
+
+def scan_record(data: SubjectData) -> dict:
+    """The settings each stage of a prepared scan ran with (its scan.json)."""
+    return read_json(data.sweep.parent / RECORD)
 
 
 def _files(out: Path) -> SubjectData:
@@ -196,17 +199,6 @@ def _with_subject(data: SubjectData) -> SubjectData:
 
     with SweepReader(data.sweep) as reader:
         return dataclasses.replace(data, subject=reader.subject)
-
-
-def _read_record(path: Path) -> dict:
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError):
-        return {}
-
-
-def _write_record(path: Path, record: dict) -> None:
-    path.write_text(json.dumps(record, indent=2) + "\n")
 
 
 def _simulate(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:

@@ -19,7 +19,7 @@ from resus.segmentation.curves import plot_training_curves
 
 if TYPE_CHECKING:
     from resus.experiments.tables import Example
-    from resus.segmentation.train import TrainingResult
+    from resus.segmentation.train import TrainingSummary
 
 PREDICTIONS_PNG = "predictions.png"
 
@@ -30,7 +30,7 @@ class ReportFigures:
     training history of each model (by name)."""
 
     examples: Sequence[Example]
-    histories: Mapping[str, TrainingResult]
+    histories: Mapping[str, TrainingSummary]
 
 
 def save_prediction_figure(path: Path, examples: Sequence[Example], title: str) -> Path:
@@ -65,7 +65,7 @@ def save_prediction_figure(path: Path, examples: Sequence[Example], title: str) 
     return path
 
 
-def save_curves(out: Path, histories: Mapping[str, TrainingResult], subject: str) -> list[str]:
+def save_curves(out: Path, histories: Mapping[str, TrainingSummary], subject: str) -> list[str]:
     """Training curves of each named run as `curves_NAME.png`; the file names."""
     names = []
     for name, training in histories.items():
@@ -94,6 +94,7 @@ def _settings_section(results: dict) -> list[str]:
         "",
         f"- command: `{results['command']}`",
         f"- device: {results['device']}, torch threads: {results['torch_threads']}",
+        f"- executor: {results['executor']}",
         f"- data (sweeps, volumes, reslices; cached): `{results['data_folder']}`",
         f"- time: data {seconds['data']} s, training and scoring {seconds['training']} s",
         "- preset (data and training), as run:",

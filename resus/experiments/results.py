@@ -24,7 +24,8 @@ NOT_CHECKED = "not checked: the us regime did not run"
 
 @dataclass(frozen=True)
 class RunRecord:
-    """How an experiment ran: on what, from which command, and how long each half took."""
+    """How an experiment ran: on what, where, from which command, and how long each half
+    took."""
 
     device: str
     torch_threads: int
@@ -33,13 +34,16 @@ class RunRecord:
     data_seconds: float
     """Simulating, reconstructing and reslicing (cached scans take no time)."""
     training_seconds: float
-    """Training and scoring."""
+    """Training and scoring (finished runs of an earlier attempt take no time)."""
+    executor: str = "local"
+    """Where the units ran (`Executor.describe()`)."""
 
     def environment(self) -> dict:
-        """results.json's device, torch_threads, command and data_folder."""
+        """results.json's device, torch_threads, executor, command and data_folder."""
         return {
             "device": self.device,
             "torch_threads": self.torch_threads,
+            "executor": self.executor,
             "command": self.command,
             "data_folder": self.data_folder,
         }

@@ -7,8 +7,11 @@
 - `run_subjects_experiment` (Table II): leave-one-subject-out over simulated subjects for the
   regimes us / imagenet / aug / resus, IoU per subject, the average, and paired t-tests.
 
-An `ExperimentPreset` fixes data size and training together; both experiments write
-`report.md`, `results.json` and PNG figures to their output folder (`experiment_report`).
+An `ExperimentPreset` fixes data size and training together, and what one training run needs
+(CPUs, a GPU share). Both experiments run their scans and their training runs as resumable
+units on an executor (`RunOptions.executor`: local worker processes or Ray; the results are
+the same on either) and write `report.md`, `results.json` and PNG figures to their output
+folder (`experiment_report`).
 """
 
 from __future__ import annotations
@@ -24,7 +27,15 @@ import numpy as np
 
 from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
-from resus.experiments.data import Scan, ScanSettings, prepare_scans, prepare_subjects
+from resus.execution import Executor, Resources, make_executor
+from resus.experiments.data import (
+    Scan,
+    ScanSettings,
+    SubjectData,
+    prepare_scans,
+    prepare_subjects,
+    scan_record,
+)
 from resus.experiments.results import (
     GeneralisationCheck,
     IoUSummary,
@@ -33,6 +44,17 @@ from resus.experiments.results import (
     ScanImages,
     SubjectsResults,
 )
+from resus.experiments.training_units import (
+    HELD_OUT_TEST,
+    PHANTOM_TEST_SUBJECT,
+    PHANTOM_TESTS,
+    TrainingOutcome,
+    TrainingUnit,
+    load_unit_model,
+    phantom_images,
+    phantom_split,
+    run_training_units,
+)
 from resus.reslicing.reslice import ResliceSettings
 from resus.segmentation.metrics import VesselIoU
 from resus.segmentation.presets import PAPER, QUICK, TrainingPreset
@@ -40,8 +62,6 @@ from resus.workers import available_cores
 from sim.labels import ARTERY, VEIN
 
 if TYPE_CHECKING:  # torch is imported only when training starts
-    import torch
-
     from resus.segmentation.loso import LosoResult
 
 
@@ -58,6 +78,22 @@ class ExperimentPreset:
     """Scan A (training) and scan B (test) of the phantom experiment."""
     repeats: int = 3
     """Phantom experiment: training seeds per table cell (seed, seed + 1, ...)."""
+    training_cpus: int = 1
+    """CPU cores of one training run, and its torch threads (part of what a run's result
+    depends on, so the same whichever engine runs it)."""
+    training_gpus: float = 0.0
+    """GPU share of one training run under Ray (0.25: four runs share a GPU); the local
+    engine leaves the GPU to `RunOptions.device`."""
+
+    def __post_init__(self) -> None:
+        try:
+            self.training_resources()
+        except ResusError as error:
+            raise ResusError(f"ExperimentPreset {self.name!r}: {error}") from None
+
+    def training_resources(self) -> Resources:
+        """What the executor reserves for one training run."""
+        return Resources(self.training_cpus, self.training_gpus)
 
     def to_dict(self) -> dict:
         return {
@@ -67,6 +103,8 @@ class ExperimentPreset:
             "subjects": list(self.subjects),
             "phantom_scans": [dataclasses.asdict(s) for s in self.phantom_scans],
             "repeats": self.repeats,
+            "training_cpus": self.training_cpus,
+            "training_gpus": self.training_gpus,
         }
 
 
@@ -90,10 +128,12 @@ QUICK_EXPERIMENT = ExperimentPreset(
     ),
     subjects=(0, 1, 2, 3),
     phantom_scans=_phantom_scans(15.0),
+    training_cpus=2,
 )
 """2-core CPU in minutes: 128 x 128 frames (120 per 8 cm sweep), 0.5 mm voxels, reslices at
 -30..30 degrees in 15 degree steps every 10 voxels at 128 x 128, 4 subjects, the tiny
-64 x 64 U-Net."""
+64 x 64 U-Net, two cores (torch threads) per training run: one run at a time on a 2-core
+machine, several side by side with more `--jobs` or on a Ray cluster."""
 
 PAPER_EXPERIMENT = ExperimentPreset(
     name="paper",
@@ -101,9 +141,12 @@ PAPER_EXPERIMENT = ExperimentPreset(
     scans=ScanSettings(spacing=0.3e-3),
     subjects=tuple(range(8)),
     phantom_scans=_phantom_scans(30.0),
+    training_cpus=2,
+    training_gpus=0.25,
 )
 """The paper's sizes: 256 x 256 frames at 30 frames/s (240 per sweep), 0.3 mm voxels, the
-paper's reslicing, 8 subjects, U-Net/ResNet34 at 256 x 256 (needs a GPU)."""
+paper's reslicing, 8 subjects, U-Net/ResNet34 at 256 x 256 (needs a GPU; under Ray, four
+training runs share one, each with 2 CPU cores)."""
 
 EXPERIMENT_PRESETS = {p.name: p for p in (QUICK_EXPERIMENT, PAPER_EXPERIMENT)}
 
@@ -126,10 +169,15 @@ class RunOptions:
     seed: int = 0
     device: str = "auto"
     jobs: int = 2
-    """Worker processes for data preparation."""
+    """CPU cores of the local executor (its worker processes), or of a Ray started here."""
     command: str = ""
     """The command line, quoted in the report."""
     progress: bool = True
+    executor: str = "local"
+    """Where scans and training runs go: "local" (worker processes) or "ray"."""
+    address: str | None = None
+    """The Ray cluster's address (auto, ray://HOST:10001, HOST:6379); None: a Ray started
+    here on 127.0.0.1 with `jobs` CPUs."""
 
 
 @dataclass(frozen=True)
@@ -143,7 +191,7 @@ class Example:
 
 
 def set_torch_threads() -> int:
-    """Let torch use every core this process may run on (data preparation has finished)."""
+    """Let torch use every core this process may run on (the units have finished)."""
     import torch
 
     torch.set_num_threads(available_cores())
@@ -157,30 +205,60 @@ def example_index(labels: np.ndarray) -> int:
     return int(np.argmax(np.minimum(artery, vein)))
 
 
-def _relabelled(sets, subject: str):
-    """The sets with their subject id replaced (two scans of one phantom are two 'subjects')."""
-    from resus.segmentation.data import LabelledImages
-
-    return tuple(LabelledImages(s.images, s.labels, subject, s.source) for s in sets)
-
-
 PHANTOM_TRAINING = {"us": "frames", "resus": "frames + reslices"}
 """Phantom table rows: regime -> what it trains on (scan A)."""
-PHANTOM_TESTS = ("frames", "frames + reslices")
-"""Phantom table columns: what it is scored on (scan B)."""
+
+
+def _executor(options: RunOptions) -> Executor:
+    """The run's executor (use it in a `with` block: a Ray it starts stops at the end)."""
+    return make_executor(options.executor, options.jobs, options.address)
+
+
+def _training_unit(
+    experiment: str,
+    regime: str,
+    held_out: str,
+    seed: int,
+    data: list[SubjectData],
+    preset: ExperimentPreset,
+    options: RunOptions,
+    encoder_weights: Path | None = None,
+) -> TrainingUnit:
+    """One training run of `experiment` on the prepared `data`; the encoder weights count
+    only for the regime that uses them."""
+    return TrainingUnit(
+        experiment,
+        regime,
+        held_out,
+        seed,
+        tuple(data),
+        tuple(scan_record(d) for d in data),
+        preset.training,
+        options.device,
+        preset.training_cpus,
+        options.data,
+        encoder_weights if regime == "imagenet" else None,
+    )
 
 
 def _run_record(
-    options: RunOptions, device: torch.device, threads: int, start: float, prepared: float
+    options: RunOptions,
+    executor: str,
+    outcomes: list[TrainingOutcome],
+    preset: ExperimentPreset,
+    start: float,
+    prepared: float,
 ) -> RunRecord:
-    """How the run went: data time from `start` to `prepared`, training time until now."""
+    """How the run went: the devices the units trained on, data time from `start` to
+    `prepared`, training (and scoring, figures) time until now."""
     return RunRecord(
-        device=str(device),
-        torch_threads=threads,
+        device=", ".join(sorted({outcome.device for outcome in outcomes})),
+        torch_threads=preset.training_cpus,
         command=options.command,
         data_folder=str(options.data),
         data_seconds=round(prepared - start, 1),
         training_seconds=round(time.perf_counter() - prepared, 1),
+        executor=executor,
     )
 
 
@@ -188,71 +266,62 @@ def run_phantom_experiment(preset: ExperimentPreset, options: RunOptions) -> Pha
     """Table I analogue; writes the report to `options.out` and returns what results.json
     holds (`.to_dict()`)."""
     from resus.experiments.report import ReportFigures, write_phantom_report
-    from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
-    from resus.segmentation.loso import Split, hold_out_tail, pooled_iou, run_regime
     from resus.segmentation.model import resolve_device
 
     start = time.perf_counter()
     scan_a, scan_b = preset.phantom_scans
     scans = [Scan("phantom_scan_a", None, scan_a), Scan("phantom_scan_b", None, scan_b)]
-    data = prepare_scans(
-        options.data, scans, preset.scans, jobs=options.jobs, progress=options.progress
-    )
-    prepared = time.perf_counter()
-    threads = set_torch_threads()
+    seeds = tuple(options.seed + r for r in range(preset.repeats))
+    with _executor(options) as executor:
+        data = prepare_scans(
+            options.data, scans, preset.scans, progress=options.progress, executor=executor
+        )
+        prepared = time.perf_counter()
+        units = {
+            (regime, seed): _training_unit(
+                "phantom", regime, PHANTOM_TEST_SUBJECT, seed, data, preset, options
+            )
+            for regime in PHANTOM_TRAINING
+            for seed in seeds
+        }
+        outcomes = run_training_units(
+            executor, list(units.values()), preset.training_resources(), options.progress
+        )
+        engine = executor.describe()
+    outcome = dict(zip(units, outcomes, strict=True))
+    set_torch_threads()
     device = resolve_device(options.device)
-    frames = {
-        name: _relabelled(load_sweep_frames([d.sweep]), f"scan {name}")
-        for name, d in zip("AB", data, strict=True)
-    }
-    reslices = {
-        name: _relabelled(load_reslice_sets([d.reslices]), f"scan {name}")
-        for name, d in zip("AB", data, strict=True)
-    }
-    train, validation = hold_out_tail(frames["A"], preset.training.validation_fraction)
-    split = Split("scan B", tuple(train), tuple(validation), reslices=reslices["A"])
-    tests = {PHANTOM_TESTS[0]: frames["B"], PHANTOM_TESTS[1]: frames["B"] + reslices["B"]}
-    frame_example, reslice_example = frames["B"][0], reslices["B"][0]
+    frames, reslices = phantom_images(data)
+    split, _ = phantom_split(frames, reslices, preset.training.validation_fraction)
     examples = [
-        _example("scan B frame", frame_example),
-        _example("scan B reslice", reslice_example),
+        _example("scan B frame", frames["B"][0]),
+        _example("scan B reslice", reslices["B"][0]),
     ]
-    table: dict[str, dict[str, list[VesselIoU]]] = {}
     histories = {}
     for regime, trained_on in PHANTOM_TRAINING.items():
-        table[trained_on] = {test: [] for test in tests}
-        for repeat in range(preset.repeats):
-            run = run_regime(
-                split,
-                regime,
-                preset.training,
-                seed=options.seed + repeat,
-                device=device,
-                progress=options.progress,
-            )
-            for test, sets in tests.items():
-                table[trained_on][test].append(
-                    pooled_iou(run.training.model, sets, preset.training)
-                )
-            if repeat == 0:
-                histories[trained_on] = run.training
-                _predict_examples(examples, trained_on, run.training.model, preset.training)
+        first = (regime, seeds[0])
+        histories[trained_on] = outcome[first].summary
+        model = load_unit_model(units[first], device)
+        _predict_examples(examples, trained_on, model, preset.training)
     results = PhantomResults(
         preset=preset,
-        seeds=tuple(options.seed + r for r in range(preset.repeats)),
+        seeds=seeds,
         scans={
             name: ScanImages(
                 d.subject, sum(len(s) for s in frames[name]), sum(len(s) for s in reslices[name])
             )
             for name, d in zip("AB", data, strict=True)
         },
-        training_frames=len(train[0]),
-        validation_frames=len(validation[0]),
+        training_frames=len(split.train[0]),
+        validation_frames=len(split.validation[0]),
         iou={
-            trained_on: {test: IoUSummary.of(runs) for test, runs in row.items()}
-            for trained_on, row in table.items()
+            trained_on: {
+                test: IoUSummary.of([outcome[(regime, seed)].test_iou[test] for seed in seeds])
+                for test in PHANTOM_TESTS
+            }
+            for regime, trained_on in PHANTOM_TRAINING.items()
         },
-        run=_run_record(options, device, threads, start, prepared),
+        run=_run_record(options, engine, outcomes, preset, start, prepared),
     )
     write_phantom_report(options.out, results, ReportFigures(examples, histories))
     return results
@@ -283,7 +352,7 @@ def run_subjects_experiment(
     holds (`.to_dict()`)."""
     from resus.experiments.report import ReportFigures, write_subjects_report
     from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
-    from resus.segmentation.loso import RegimeRun, run_loso, subjects_of
+    from resus.segmentation.loso import LosoResult, subjects_of
     from resus.segmentation.model import resolve_device
 
     subjects = tuple(preset.subjects if subjects is None else subjects)
@@ -292,42 +361,42 @@ def run_subjects_experiment(
     if encoder_weights is not None and not Path(encoder_weights).is_file():
         raise ResusError("no such encoder weights file", encoder_weights)
     start = time.perf_counter()
-    data = prepare_subjects(
-        options.data, subjects, preset.scans, jobs=options.jobs, progress=options.progress
-    )
-    prepared = time.perf_counter()
-    threads = set_torch_threads()
+    with _executor(options) as executor:
+        data = prepare_subjects(
+            options.data, subjects, preset.scans, progress=options.progress, executor=executor
+        )
+        prepared = time.perf_counter()
+        frames = load_sweep_frames([d.sweep for d in data])
+        reslices = load_reslice_sets([d.reslices for d in data])
+        ids = subjects_of(frames)
+        loso = LosoResult(ids)
+        units = [
+            _training_unit(
+                "subjects", regime, subject, options.seed, data, preset, options, encoder_weights
+            )
+            for regime in loso.admit(regimes, reslices, encoder_weights)
+            for subject in ids
+        ]
+        outcomes = run_training_units(
+            executor, units, preset.training_resources(), options.progress
+        )
+        engine = executor.describe()
+    set_torch_threads()
     device = resolve_device(options.device)
-    frames = load_sweep_frames([d.sweep for d in data])
-    reslices = load_reslice_sets([d.reslices for d in data])
-    ids = subjects_of(frames)
-    training = preset.training
     example_set = next(s for s in frames if s.subject == ids[0])
     examples = [_example(f"held-out subject {ids[0]}, frame", example_set)]
     validation_iou: dict[str, dict[str, VesselIoU]] = {}
     training_images: dict[str, dict[str, int]] = {}
     histories = {}
-
-    def record(regime: str, subject: str, run: RegimeRun) -> None:
-        """Keep each run's best validation IoU and training size; curves and example
-        predictions of the first held-out subject."""
-        validation_iou.setdefault(regime, {})[subject] = run.training.best.validation_iou
-        training_images.setdefault(regime, {})[subject] = run.training.config["train_images"]
-        if subject == ids[0]:
-            histories[regime] = run.training
-            _predict_examples(examples, regime, run.training.model, training)
-
-    result = run_loso(
-        frames,
-        reslices,
-        regimes,
-        training,
-        seed=options.seed,
-        device=device,
-        encoder_weights=encoder_weights,
-        progress=options.progress,
-        on_run=record,
-    )
+    for unit, outcome in zip(units, outcomes, strict=True):
+        regime, subject = unit.regime, unit.held_out
+        loso.iou.setdefault(regime, {})[subject] = outcome.test_iou[HELD_OUT_TEST]
+        validation_iou.setdefault(regime, {})[subject] = outcome.validation_iou
+        training_images.setdefault(regime, {})[subject] = outcome.train_images
+        if subject == ids[0]:  # curves and example predictions of the first held-out subject
+            histories[regime] = outcome.summary
+            _predict_examples(examples, regime, load_unit_model(unit, device), preset.training)
+    loso.compare()
     results = SubjectsResults(
         preset=preset,
         seed=options.seed,
@@ -335,11 +404,11 @@ def run_subjects_experiment(
         images=tuple(
             ScanImages(s.subject, len(s), len(r)) for s, r in zip(frames, reslices, strict=True)
         ),
-        loso=result,
+        loso=loso,
         validation_iou=validation_iou,
         training_images=training_images,
-        generalisation=generalisation_check(result, validation_iou),
-        run=_run_record(options, device, threads, start, prepared),
+        generalisation=generalisation_check(loso, validation_iou),
+        run=_run_record(options, engine, outcomes, preset, start, prepared),
     )
     write_subjects_report(options.out, results, ReportFigures(examples, histories))
     return results

@@ -1,8 +1,10 @@
-"""The robot/probe factory behind `resus scan --robot/--probe`, and the shared process pool."""
+"""The robot/probe factory behind `resus scan --robot/--probe`, and the executor flags of
+`simulate` and `experiment` (`--executor`, `--address`): one line naming the flag, exit 2."""
 
 from __future__ import annotations
 
 import pytest
+from cli_runner import free_port, one_line_error, resus, run_main
 
 from resus.acquisition.backends.simulated import SimulatedProbe, SimulatedRobot
 from resus.acquisition.factory import (
@@ -16,7 +18,6 @@ from resus.acquisition.factory import (
 from resus.acquisition.simulation import resolve_scene
 from resus.cli.scan import parse_probe, parse_robot
 from resus.errors import ResusError
-from resus.workers import available_cores, map_in_processes
 from sim.ultrasound.probe import LinearProbe
 
 
@@ -56,9 +57,43 @@ def test_the_factory_opens_the_simulated_robot_and_its_probe():
         make_probe("sim", robot, scene)
 
 
-def test_map_in_processes_keeps_order_in_and_out_of_process():
-    assert available_cores() >= 1
-    items = [-3, 1, -2]
-    assert map_in_processes(abs, items, 1, desc="t", unit="x", progress=False) == [3, 1, 2]
-    assert map_in_processes(abs, items, 2, desc="t", unit="x", progress=False) == [3, 1, 2]
-    assert map_in_processes(abs, [], 2, desc="t", unit="x", progress=False) == []
+NOWHERE = "127.0.0.1:{port}"
+"""A cluster address where nothing listens (`{port}`: a free port)."""
+COMMANDS = {
+    "simulate": ["simulate", "--subjects", "0-1", "--out", "{tmp}/sweeps"],
+    "experiment phantom": ["experiment", "phantom", "--out", "{tmp}/report"],
+    "experiment subjects": ["experiment", "subjects", "--out", "{tmp}/report"],
+}
+BAD_FLAGS = [
+    (["--executor", "foo"], "--executor: unknown executor 'foo', expected local or ray"),
+    (["--address", "auto"], "--address: only the ray executor takes an address, got executor"),
+    (["--executor", "ray", "--address", "head"], "--address: RayExecutor address must be auto"),
+    (["--executor", "ray", "--address", NOWHERE], "--address: cannot reach a Ray cluster at"),
+    (["--executor", "ray", "--address", "ray://" + NOWHERE], "--address: cannot reach a Ray"),
+]
+
+
+@pytest.mark.parametrize("command", list(COMMANDS))
+@pytest.mark.parametrize(
+    ("flags", "message"), BAD_FLAGS, ids=["name", "local", "form", "gcs", "client"]
+)
+def test_a_bad_executor_flag_is_one_line_before_any_work(
+    monkeypatch, capsys, tmp_path, command, flags, message
+):
+    port = free_port()
+    arguments = [a.format(tmp=tmp_path, port=port) for a in COMMANDS[command] + flags]
+    one_line_error(run_main(monkeypatch, capsys, *arguments), message)
+    assert list(tmp_path.iterdir()) == []  # nothing made
+
+
+def test_one_sweep_runs_here_whatever_the_executor(monkeypatch, capsys, tmp_path):
+    arguments = ["simulate", "--out", tmp_path / "s.h5", "--executor", "ray"]
+    one_line_error(run_main(monkeypatch, capsys, *arguments), "--executor ray runs the sweeps")
+
+
+def test_an_unreachable_cluster_for_real(tmp_path):
+    address = f"ray://127.0.0.1:{free_port()}"
+    done = resus("experiment", "subjects", "--out", tmp_path / "r", "--executor", "ray",
+                 "--address", address)  # fmt: skip
+    one_line_error((done.returncode, done.stdout, done.stderr), f"'{address}'")
+    assert "Traceback" not in done.stderr and not (tmp_path / "r").exists()
