@@ -13,6 +13,9 @@ ExecutorOption = Annotated[
     str,
     typer.Option(help="Where the units run: local (worker processes here) or ray (a cluster)."),
 ]
+JobsOption = Annotated[
+    int, typer.Option(min=1, help="Local worker processes (or the CPUs of a Ray started here).")
+]
 AddressOption = Annotated[
     str | None,
     typer.Option(

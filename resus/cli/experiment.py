@@ -13,7 +13,12 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from resus.cli.executor_options import AddressOption, ExecutorOption, check_executor_flags
+from resus.cli.executor_options import (
+    AddressOption,
+    ExecutorOption,
+    JobsOption,
+    check_executor_flags,
+)
 from resus.cli.parsers import flag_error, parse_index_set, parse_names
 from resus.errors import ResusError
 
@@ -21,7 +26,6 @@ if TYPE_CHECKING:
     from resus.experiments.tables import RunOptions
 
 REGIME_HELP = "Comma list of us, imagenet, aug, resus (imagenet needs --weights)."
-JOBS_HELP = "Local worker processes (or the CPUs of a Ray started here)."
 
 
 def parse_subjects(text: str) -> list[int]:
@@ -49,8 +53,6 @@ def run_options(
 
     if out.exists() and not out.is_dir():
         raise ResusError("--out: is a file, expected a folder", out)
-    if jobs < 1:
-        raise ResusError(f"--jobs must be at least 1, got {jobs}")
     check_executor_flags(executor, address)
     command = shlex.join(["resus", *sys.argv[1:]]) if sys.argv else "resus experiment"
     return RunOptions(
@@ -85,7 +87,7 @@ def register(app: typer.Typer) -> None:
         ] = None,
         seed: Annotated[int, typer.Option(help="First training seed.")] = 0,
         device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
-        jobs: Annotated[int, typer.Option(help=JOBS_HELP)] = 2,
+        jobs: JobsOption = 2,
         executor: ExecutorOption = "local",
         address: AddressOption = None,
     ) -> None:
@@ -118,7 +120,7 @@ def register(app: typer.Typer) -> None:
         ] = None,
         seed: Annotated[int, typer.Option(help="Training seed.")] = 0,
         device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
-        jobs: Annotated[int, typer.Option(help=JOBS_HELP)] = 2,
+        jobs: JobsOption = 2,
         executor: ExecutorOption = "local",
         address: AddressOption = None,
     ) -> None:

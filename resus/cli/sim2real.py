@@ -4,14 +4,13 @@ few-label curve with and without simulation pretraining."""
 from __future__ import annotations
 
 import dataclasses
-import shlex
-import sys
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
 from resus.cli.evaluate import read_image_folders
+from resus.cli.executor_options import AddressOption, ExecutorOption, JobsOption
 from resus.cli.parsers import flag_error
 from resus.errors import ResusError
 
@@ -35,15 +34,18 @@ def register(group: typer.Typer) -> None:
         ] = None,
         seed: Annotated[int, typer.Option(help="Phantom, scanner, split and training seed.")] = 0,
         device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
-        jobs: Annotated[int, typer.Option(min=1, help="Processes simulating sweeps.")] = 2,
+        jobs: JobsOption = 2,
+        executor: ExecutorOption = "local",
+        address: AddressOption = None,
     ) -> None:
         """Simulation-only U-Net scored on --real, then fine-tuned on k = 0..100 real images
         from simulation and from scratch: report.md, results.json, few_label_curve.png."""
+        from resus.cli.experiment import run_options
+        from resus.execution import make_executor
         from resus.experiments.sim2real import get_sim2real_preset, real_splits, run_sim2real
         from resus.segmentation.model import resolve_device
 
-        if out.exists() and not out.is_dir():
-            raise ResusError("--out: is a file, expected a folder", out)
+        options = run_options(out, data, seed, device, jobs, executor, address)
         with flag_error("--preset"):
             settings = get_sim2real_preset(preset)
         if training is not None:
@@ -56,10 +58,17 @@ def register(group: typer.Typer) -> None:
                 raise ResusError("no such folder", real)
             folder = read_image_folders(real / "images", real / "masks")
             real_splits(len(folder), settings, seed)
-        command = shlex.join(["resus", *sys.argv[1:]]) if sys.argv else "resus experiment"
-        result = run_sim2real(
-            settings, folder, out, data=data, seed=seed, device=device, jobs=jobs, command=command
-        )
+        with make_executor(executor, jobs, address) as engine:
+            result = run_sim2real(
+                settings,
+                folder,
+                out,
+                data=options.data,
+                seed=seed,
+                device=device,
+                executor=engine,
+                command=options.command,
+            )
         summary = result.to_dict()
         vessel = summary["sim_only"]["pooled"]["vessel"]
         typer.echo(f"simulation only: vessel IoU {vessel['iou']:.3f}, Dice {vessel['dice']:.3f}")

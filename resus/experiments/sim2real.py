@@ -12,6 +12,10 @@ what simulation pretraining is worth once a few real labels exist.
    set, so the curve compares like with like. From simulation, k = 0 is the simulation-only
    model itself; from scratch, k = 0 has nothing to learn from and is not reported.
 
+The sweeps, the simulation-only training and every fine-tuning are units on an executor
+(`resus.execution`: local worker processes or a Ray cluster; `sim2real_units`), each recorded
+when it finishes, so a rerun resumes and the figures do not depend on the engine.
+
 Every run of a fine-tuning sees the same number of images (`fine_tune_epochs` x
 `fine_tune_epoch_images`: the k images repeated, each repeat augmented afresh), so a small k is
 not also a short training. With k labels there are none to spare for validation: the best
@@ -30,16 +34,15 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from tqdm import tqdm
 
 from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
+from resus.execution import Executor, Resources, make_executor
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.evaluate import Evaluation, score_labels
 from resus.segmentation.folders import FolderImages
 from resus.segmentation.presets import TrainingPreset, get_preset
 from resus.segmentation.trained_model import TrainedModel
-from resus.workers import map_in_processes
 
 SCHEMA = "resus.sim2real/1"
 FROM_SIMULATION, FROM_SCRATCH = "simulation", "scratch"
@@ -80,6 +83,11 @@ class Sim2RealSettings:
     """Images per fine-tuning epoch: the k images repeated up to this count."""
     minimum_test_images: int = 20
     """The least the real set must leave for testing after the largest k."""
+    training_cpus: int = 2
+    """CPU cores of one training run, and its torch threads (part of what a run's result
+    depends on, so the same whichever engine runs it)."""
+    training_gpus: float = 0.0
+    """GPU share of one training run under Ray (0.25: four runs share a GPU)."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "subjects", tuple(int(k) for k in self.subjects))
@@ -96,7 +104,14 @@ class Sim2RealSettings:
             raise ResusError(
                 f"{where}.label_counts must be distinct, increasing and >= 0, got {counts}"
             )
-        for name in ("splits", "fine_tune_epochs", "fine_tune_epoch_images", "minimum_test_images"):
+        counted = (
+            "splits",
+            "fine_tune_epochs",
+            "fine_tune_epoch_images",
+            "minimum_test_images",
+            "training_cpus",
+        )
+        for name in counted:
             if getattr(self, name) < 1:
                 raise ResusError(f"{where}.{name} must be at least 1, got {getattr(self, name)}")
         if not 0 <= self.export_framing_p <= 1:
@@ -104,6 +119,11 @@ class Sim2RealSettings:
                 f"{where}.export_framing_p must be in [0, 1], got {self.export_framing_p}"
             )
         get_preset(self.training)  # an unknown preset fails here, before any work
+        Resources(self.training_cpus, self.training_gpus)  # a bad GPU share fails here too
+
+    def resources(self) -> Resources:
+        """What one training run needs of the executor."""
+        return Resources(self.training_cpus, self.training_gpus)
 
     def training_preset(self) -> TrainingPreset:
         """The `training` preset with the experiment's export framing."""
@@ -130,6 +150,7 @@ SIM2REAL_PRESETS: dict[str, Sim2RealSettings] = {
         splits=5,
         fine_tune_epochs=10,
         fine_tune_epoch_images=160,
+        training_gpus=0.25,
     ),
 }
 """`quick`: 6 subjects, the 128 px CPU training preset (its training alone: 12 minutes on 2
@@ -269,48 +290,80 @@ def few_label_curve(
     real: FolderImages,
     sim_only: TrainedModel,
     settings: Sim2RealSettings,
+    out: Path,
     *,
     seed: int,
-    device: torch.device,
+    device: str,
+    executor: Executor,
     example_count: int = 4,
     progress: bool = True,
 ) -> tuple[
     list[RealSplit], list[CurvePoint], FolderImages, dict[tuple[str, int], list[np.ndarray]]
 ]:
-    """Every (split, initialisation, k) fine-tuning, scored; with `example_count` of the
-    first split's test images (`example_indices`) and the labels each model gave them, for
-    the figure."""
-    preset = settings.training_preset()
+    """Every (split, initialisation, k) fine-tuning, a unit on `executor` (its folder under
+    `out/few_label/`), scored; with `example_count` of the first split's test images
+    (`example_indices`) and the labels each model gave them, for the figure. k = 0 from
+    simulation is `sim_only` itself (a saved model: the units load it), scored here."""
+    from resus.execution import run_pending
+    from resus.experiments.sim2real_units import (
+        FEW_LABEL_FOLDER,
+        FineTuneUnit,
+        fine_tune_unit,
+        images_digest,
+        read_examples,
+    )
+
+    if sim_only.path is None:
+        raise ResusError("few_label_curve: the simulation-only model must be a saved one")
     splits = real_splits(len(real), settings, seed)
-    runs = [
-        (split, initialisation, k)
+    tests = [real.subset(split.test) for split in splits]
+    shown = tuple(example_indices(tests[0], example_count))
+    digest = images_digest(real)
+    points: list[CurvePoint] = []
+    examples: dict[tuple[str, int], list[np.ndarray]] = {}
+    for split, test in zip(splits, tests, strict=True):
+        if 0 not in settings.label_counts:
+            break
+        evaluation, predicted = vessel_scores(sim_only, test)
+        pooled = evaluation.pooled()["vessel"]
+        points.append(CurvePoint(FROM_SIMULATION, 0, split.index, pooled.iou, pooled.dice))
+        if split.index == 0:
+            examples[(FROM_SIMULATION, 0)] = [predicted[i] for i in shown]
+    units = [
+        FineTuneUnit(
+            real.image_folder,
+            real.mask_folder,
+            digest,
+            split,
+            initialisation,
+            k,
+            settings,
+            seed,
+            device,
+            sim_only.path,
+            shown if split.index == 0 else (),
+            out / FEW_LABEL_FOLDER / f"{initialisation}_k{k}_split{split.index}",
+        )
         for split in splits
         for initialisation in INITIALISATIONS
         for k in settings.label_counts
-        if k > 0 or initialisation == FROM_SIMULATION
+        if k > 0
     ]
-    tests = [real.subset(split.test) for split in splits]
-    shown = example_indices(tests[0], example_count)
-    points: list[CurvePoint] = []
-    examples: dict[tuple[str, int], list[np.ndarray]] = {}
-    for split, initialisation, k in tqdm(runs, desc="few-label", unit="run", disable=not progress):
-        if k == 0:
-            model = sim_only
-        else:
-            initial = sim_only if initialisation == FROM_SIMULATION else None
-            model = fine_tune(
-                real.subset(split.pool[:k]),
-                initial,
-                preset,
-                settings,
-                seed=seed + 1000 * split.index + k,
-                device=device,
-            )
-        evaluation, predicted = vessel_scores(model, tests[split.index])
-        pooled = evaluation.pooled()["vessel"]
-        points.append(CurvePoint(initialisation, k, split.index, pooled.iou, pooled.dice))
-        if split.index == 0:
-            examples[(initialisation, k)] = [predicted[i] for i in shown]
+    scores = run_pending(
+        executor,
+        fine_tune_unit,
+        [(unit, unit.record()) for unit in units],
+        "few-label",
+        "run",
+        settings.resources(),
+        progress,
+    )
+    for unit, score in zip(units, scores, strict=True):
+        points.append(CurvePoint(unit.initialisation, unit.labels, unit.split.index, **score))
+        if unit.shown:
+            examples[(unit.initialisation, unit.labels)] = read_examples(unit)
+    order = {name: i for i, name in enumerate(INITIALISATIONS)}
+    points.sort(key=lambda p: (p.split, order[p.initialisation], p.labels))
     return splits, points, tests[0].subset(shown), examples
 
 
@@ -333,10 +386,15 @@ def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dic
 
 
 def simulate_subjects(
-    folder: Path, settings: Sim2RealSettings, seed: int, *, jobs: int = 2, progress: bool = True
+    folder: Path,
+    settings: Sim2RealSettings,
+    seed: int,
+    executor: Executor,
+    *,
+    progress: bool = True,
 ) -> list[Path]:
-    """One sweep per subject in `folder/subject_KK.h5`; a sweep already there from the same
-    phantom, subject, seed and scanner is kept."""
+    """One sweep per subject in `folder/subject_KK.h5`, each a unit on `executor`; a sweep
+    already there from the same phantom, subject, seed and scanner is kept."""
     from resus.sweep.io import SweepReader
 
     folder.mkdir(parents=True, exist_ok=True)
@@ -350,15 +408,17 @@ def simulate_subjects(
             if made_from == wanted:
                 continue
         work.append((path, settings, subject, seed))
-    map_in_processes(_simulate_sweep, work, jobs, "simulate", "sweep", progress=progress)
+    executor.map(_simulate_sweep, work, "simulate", "sweep", progress=progress)
     return paths
 
 
 def _simulate_sweep(job: tuple[Path, Sim2RealSettings, int, int]) -> None:
     """One subject's sweep (top level so worker processes can run it)."""
     from resus.acquisition.simulation import resolve_scene, simulate_sweep
+    from resus.execution import limit_numba_threads
     from sim.ultrasound.scanner import sweep_preset
 
+    limit_numba_threads()
     path, settings, subject, seed = job
     scene = resolve_scene("default", settings.phantom, subject)
     preset = sweep_preset(settings.scanner, seed, subject)
@@ -417,48 +477,56 @@ def run_sim2real(
     data: Path | None = None,
     seed: int = 0,
     device: str = "auto",
-    jobs: int = 2,
+    executor: Executor | None = None,
     command: str = "",
     progress: bool = True,
 ) -> Sim2RealResult:
     """The whole experiment on the real images `real` (`read_folders`) into `out` (report.md,
-    results.json, PNGs, sim_only/, realism/); the sweeps go to `data` (default `out/data`),
-    where a rerun finds them."""
+    results.json, PNGs, sim_only/, few_label/, realism/); the sweeps go to `data` (default
+    `out/data`). Sweeps and training runs are units on `executor` (default: two local
+    worker processes); a rerun into the same folders redoes only the units not finished."""
+    from resus.execution import run_pending
     from resus.experiments.realism import ImageSet, read_sweep_set, write_realism_report
     from resus.experiments.sim2real_report import EXAMPLE_IMAGES, write_sim2real_report
+    from resus.experiments.sim2real_units import SIM_ONLY_FOLDER, SimOnlyUnit, train_sim_only
     from resus.segmentation.evaluate import evaluate_folder
-    from resus.segmentation.loaders import load_sweep_frames
-    from resus.segmentation.loso import make_split, run_regime
     from resus.segmentation.model import resolve_device
     from resus.segmentation.trained_model import load_model
 
     out, real_folder = Path(out), real.image_folder.parent
     real_splits(len(real), settings, seed)  # too few real images fails before any work
     torch_device = resolve_device(device)
-    preset = settings.training_preset()
+    engine = executor or make_executor("local", 2)
     sweeps = simulate_subjects(
-        Path(data or out / "data") / "sweeps", settings, seed, jobs=jobs, progress=progress
+        Path(data or out / "data") / "sweeps", settings, seed, engine, progress=progress
     )
-    frames = load_sweep_frames(sweeps)
-    split = make_split(frames, [], None, preset.validation_fraction)
-    run_regime(
-        split,
-        settings.regime,
-        preset,
-        seed=seed,
-        device=torch_device,
-        out_dir=out / "sim_only",
-        progress=progress,
+    unit = SimOnlyUnit(
+        tuple(sweeps),
+        tuple(sweep_provenance(settings, k, seed) for k in settings.subjects),
+        settings,
+        seed,
+        device,
+        out / SIM_ONLY_FOLDER,
+        progress=progress and engine.name == "local",
     )
-    sim_only = load_model(out / "sim_only" / "checkpoint.pt", torch_device)
-    evaluate_folder(sim_only, real, out / "sim_only" / "evaluation", progress=progress)
+    run_pending(
+        engine, train_sim_only, [(unit, unit.record())], "simulation only", "run",
+        settings.resources(), progress,
+    )  # fmt: skip
+    # scored here with the training runs' thread count: figures that do not depend on
+    # which engine trained (torch's sums follow its threads)
+    torch.set_num_threads(settings.training_cpus)
+    sim_only = load_model(unit.checkpoint, torch_device)
+    evaluate_folder(sim_only, real, unit.folder / "evaluation", progress=progress)
     evaluation, _ = vessel_scores(sim_only, real)
     splits, points, shown, examples = few_label_curve(
         real,
         sim_only,
         settings,
+        out,
         seed=seed,
-        device=torch_device,
+        device=device,
+        executor=engine,
         example_count=EXAMPLE_IMAGES,
         progress=progress,
     )

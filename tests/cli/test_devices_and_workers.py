@@ -63,6 +63,7 @@ COMMANDS = {
     "simulate": ["simulate", "--subjects", "0-1", "--out", "{tmp}/sweeps"],
     "experiment phantom": ["experiment", "phantom", "--out", "{tmp}/report"],
     "experiment subjects": ["experiment", "subjects", "--out", "{tmp}/report"],
+    "experiment sim2real": ["experiment", "sim2real", "--real", "{tmp}/r", "--out", "{tmp}/o"],
 }
 BAD_FLAGS = [
     (["--executor", "foo"], "--executor: unknown executor 'foo', expected local or ray"),

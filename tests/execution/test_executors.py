@@ -24,7 +24,7 @@ from resus.execution import (
     make_executor,
     run_pending,
 )
-from resus.workers import available_cores, map_in_processes
+from resus.workers import available_cores
 
 
 def granted(_: object) -> int | None:
@@ -49,7 +49,6 @@ def test_local_executor_keeps_order_in_and_out_of_process():
     for jobs in (1, 2):
         assert LocalExecutor(jobs).map(abs, items, "t", "x", progress=False) == [3, 1, 2, 5]
     assert LocalExecutor(2).map(abs, [], "t", "x", progress=False) == []
-    assert map_in_processes(abs, items, 2, desc="t", unit="x", progress=False) == [3, 1, 2, 5]
 
 
 def test_units_share_the_local_cores_by_their_resources():

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ from PIL import Image
 
 from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
+from resus.execution import LocalExecutor
 from resus.experiments.sim2real import (
     FROM_SCRATCH,
     FROM_SIMULATION,
@@ -44,6 +46,7 @@ TINY = Sim2RealSettings(
     fine_tune_epochs=1,
     fine_tune_epoch_images=8,
     minimum_test_images=6,
+    training_cpus=1,
 )
 
 
@@ -158,7 +161,10 @@ def test_a_small_run_end_to_end(tmp_path):
     folder = write_real_folder(tmp_path / "real", 20)
     real = read_folders(folder / "images", folder / "masks")
     out = tmp_path / "out"
-    result = run_sim2real(TINY, real, out, seed=3, device="cpu", jobs=2, progress=False)
+    in_process = LocalExecutor(1)  # one CPU slot: every unit runs in this process
+    result = run_sim2real(
+        TINY, real, out, seed=3, device="cpu", executor=in_process, progress=False
+    )
     results = json.loads((out / "results.json").read_text())
     assert results == json.loads(json.dumps(result.to_dict()))
     for name in ("report.md", "few_label_curve.png", "examples.png", "realism/realism.md"):
@@ -197,10 +203,31 @@ def test_a_small_run_end_to_end(tmp_path):
 
     # a rerun keeps the sweeps it finds, made from the same phantom, subject, seed and scanner
     stamps = [Path(p).stat().st_mtime_ns for p in results["sweeps"]]
-    assert simulate_subjects(out / "data" / "sweeps", TINY, 3, progress=False) == [
+    assert simulate_subjects(out / "data" / "sweeps", TINY, 3, in_process, progress=False) == [
         Path(p) for p in results["sweeps"]
     ]
     assert [Path(p).stat().st_mtime_ns for p in results["sweeps"]] == stamps
+
+    # the fine-tunings in two worker processes give the same curve, to the last bit; the
+    # simulation-only unit, finished (copied from the first run), is not trained again
+    units = sorted((out / "few_label").glob("*/unit.json"))
+    assert len(units) == 8
+    again = tmp_path / "again"
+    shutil.copytree(out / "sim_only", again / "sim_only")
+    trained = (again / "sim_only" / "checkpoint.pt").stat().st_mtime_ns
+    workers = run_sim2real(
+        TINY, real, again, data=out / "data", seed=3, device="cpu",
+        executor=LocalExecutor(2), progress=False,
+    )  # fmt: skip
+    assert (again / "sim_only" / "checkpoint.pt").stat().st_mtime_ns == trained
+    assert workers.points == result.points
+    assert workers.to_dict()["curve_summary"] == results["curve_summary"]
+
+    # a rerun of the first finds every unit finished and trains nothing
+    stamps = [path.stat().st_mtime_ns for path in units]
+    rerun = run_sim2real(TINY, real, out, seed=3, device="cpu", executor=in_process, progress=False)
+    assert [path.stat().st_mtime_ns for path in units] == stamps
+    assert rerun.points == result.points
 
 
 @pytest.mark.parametrize(
