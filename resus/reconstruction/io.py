@@ -10,6 +10,7 @@ grids (the RANSAC parallelepiped) keep their exact step vectors.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -17,6 +18,7 @@ import numpy as np
 
 from resus.errors import ResusError
 from resus.reconstruction.grid import VolumeGrid
+from resus.timestamps import now
 
 MM = 1e3
 NRRD_SUFFIXES = (".nrrd", ".nhdr")
@@ -73,6 +75,7 @@ def write_volume(
         if subject:
             header[SUBJECT_FIELD] = subject
         nrrd.write(str(path), np.ascontiguousarray(array), header, index_order="F")
+        _stamp_nrrd(path)
     else:
         import SimpleITK as sitk
 
@@ -86,6 +89,22 @@ def write_volume(
             image.SetMetaData(SUBJECT_FIELD, subject)
         sitk.WriteImage(image, str(path), useCompression=True)
     return path
+
+
+NRRD_TIME_LINE = re.compile(rb"# on \d{4}-\d\d-\d\d \d\d:\d\d:\d\d\(GMT\)\.\n")
+"""The comment pynrrd writes its clock's time in (always, as the file's third line)."""
+
+
+def _stamp_nrrd(path: Path) -> None:
+    """Put `resus.timestamps.now()` in the time comment pynrrd wrote, in place (same
+    length): with SOURCE_DATE_EPOCH set, two runs write byte-identical volumes."""
+    with open(path, "r+b") as file:
+        head = file.read(256)
+        found = NRRD_TIME_LINE.search(head)
+        if found is None:
+            return  # a pynrrd that writes no time: nothing to stamp
+        file.seek(found.start())
+        file.write(now().strftime("# on %Y-%m-%d %H:%M:%S(GMT).\n").encode("ascii"))
 
 
 def read_volume(path: str | Path) -> tuple[np.ndarray, VolumeGrid, list[str] | None]:

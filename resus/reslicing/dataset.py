@@ -7,7 +7,7 @@
 | `angles_deg` | (M, 2) float64 | rotation about x, then about y (degrees) |
 | `slice_index` | (M,) int32 | z index of the slice in the rotated volume |
 | `plane_to_world` | (M, 4, 4) float64 | pixel `(col, row, 0, 1)` to world metres |
-| attrs `schema`, `source_volume`, `subject`, `label_names`, `created` | | |
+| attrs `schema`, `source_volume`, `subject`, `label_names`, `created` | | volume: path from here |
 | attrs `angles_deg`, `step`, `min_nonzero`, `size`, `method` | | the settings |
 | attrs `intensity_order`, `label_order` | | spline orders used (3 and 0) |
 
@@ -18,9 +18,9 @@ chunk), so a long run keeps memory flat and a crash loses at most the unflushed 
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Iterator
 from contextlib import AbstractContextManager
-from datetime import UTC, datetime
 from pathlib import Path
 
 import h5py
@@ -28,6 +28,7 @@ import numpy as np
 
 from resus.errors import ResusError
 from resus.reslicing.reslice import Reslice, ResliceSettings
+from resus.timestamps import now_iso
 from sim.labels import LABEL_NAMES
 
 SCHEMA = "resus.reslices/1"
@@ -35,13 +36,14 @@ FLUSH_EVERY = 64
 
 
 class ResliceWriter(AbstractContextManager):
-    """Streams reslices into a new HDF5 file; use as a context manager."""
+    """Streams reslices into a new HDF5 file; use as a context manager. `source_volume` is
+    the volume file they were cut from, recorded relative to the new file's folder."""
 
     def __init__(
         self,
         path: str | Path,
         settings: ResliceSettings,
-        source_volume: str,
+        source_volume: str | Path,
         subject: str = "",
         label_names: Iterable[str] = LABEL_NAMES,
     ) -> None:
@@ -54,10 +56,11 @@ class ResliceWriter(AbstractContextManager):
         size = settings.size
         attrs = self._file.attrs
         attrs["schema"] = SCHEMA
-        attrs["source_volume"] = source_volume
+        # relative to this file's folder: a folder moved or copied whole keeps it right
+        attrs["source_volume"] = os.path.relpath(source_volume, self.path.parent)
         attrs["subject"] = subject
         attrs["label_names"] = list(label_names)
-        attrs["created"] = datetime.now(UTC).isoformat()
+        attrs["created"] = now_iso()
         for name, value in settings.as_attrs().items():
             attrs[name] = value
         self._datasets = {

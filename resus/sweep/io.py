@@ -38,8 +38,8 @@ from resus.sweep.model import (
     check_source,
     check_timestamps,
     check_uint8,
-    now_iso,
 )
+from resus.timestamps import now_iso
 from sim.labels import LABEL_NAMES
 
 SCHEMA = "resus.sweep/1"

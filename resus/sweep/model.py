@@ -12,12 +12,13 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
+from datetime import datetime
 from typing import NamedTuple, Protocol
 
 import numpy as np
 
 from resus.errors import ResusError
+from resus.timestamps import now_iso
 from sim.labels import LABEL_NAMES
 from sim.transforms import is_rigid, rigidity_error
 
@@ -27,11 +28,6 @@ PER_FRAME = ("frames", "labels", "probe_to_base", "timestamps", "wrench", "joint
 
 class SweepError(ResusError):
     """A sweep (in memory or in a file) that breaks the `resus.sweep/1` rules."""
-
-
-def now_iso() -> str:
-    """The current time as an ISO 8601 string with its UTC offset, to the second."""
-    return datetime.now(UTC).isoformat(timespec="seconds")
 
 
 def check_uint8(array: np.ndarray, name: str, ndim: int) -> np.ndarray:

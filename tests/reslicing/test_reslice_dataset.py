@@ -30,8 +30,9 @@ def _reslices(count: int, size: int = 16) -> list[Reslice]:
 def test_dataset_round_trip(tmp_path):
     settings = ResliceSettings(angles_deg=(-10.0, 10.0), step=3, size=16)
     written = _reslices(70)
-    path = tmp_path / "reslices.h5"
-    with ResliceWriter(path, settings, source_volume="volume.nrrd", subject="pig-1") as writer:
+    path = tmp_path / "reslices" / "reslices.h5"
+    volume = tmp_path / "volumes" / "volume.nrrd"  # recorded relative to the reslices' folder
+    with ResliceWriter(path, settings, source_volume=volume, subject="pig-1") as writer:
         for reslice in written:
             writer.append(reslice)
     with ResliceDataset(path) as dataset:
@@ -41,7 +42,7 @@ def test_dataset_round_trip(tmp_path):
         assert (
             attrs["schema"] == SCHEMA
             and attrs["subject"] == "pig-1"
-            and attrs["source_volume"] == "volume.nrrd"
+            and attrs["source_volume"] == "../volumes/volume.nrrd"
         )
         assert (
             attrs["step"] == 3
