@@ -78,6 +78,7 @@ def simulate_sweep(
         "seed": spec.seed,
         "scanner": None if preset is None else preset.name,
         "dynamic_range_db": probe_config.settings.dynamic_range_db,
+        "pattern": trajectory.pattern,
     }
     return scanner.run(
         trajectory, out, source="sim", subject=subject_id(scene), provenance=provenance

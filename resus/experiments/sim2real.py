@@ -69,6 +69,12 @@ class Sim2RealSettings:
     sweep: LinearPattern = field(
         default_factory=lambda: LinearPattern(start=(0.0, -0.04), length=0.06)
     )
+    """The nominal sweep; each subject's is moved and tilted (`subject_sweep`)."""
+    sweep_offset: float = 0.010
+    """Each subject's sweep starts up to this far (m) to either side of the nominal start: a
+    sonographer's probe does not centre the vessels in the image."""
+    sweep_tilt_deg: float = 10.0
+    """Each subject's probe is tilted by up to this much (degrees) either way along the sweep."""
     regime: str = "aug"
     """Training regime of the simulation-only model and of every fine-tuning."""
     export_framing_p: float = 0.5
@@ -114,6 +120,11 @@ class Sim2RealSettings:
         for name in counted:
             if getattr(self, name) < 1:
                 raise ResusError(f"{where}.{name} must be at least 1, got {getattr(self, name)}")
+        if not (self.sweep_offset >= 0 and 0 <= self.sweep_tilt_deg < 45):
+            raise ResusError(
+                f"{where}.sweep_offset must be >= 0 and sweep_tilt_deg in [0, 45), got "
+                f"{self.sweep_offset}, {self.sweep_tilt_deg}"
+            )
         if not 0 <= self.export_framing_p <= 1:
             raise ResusError(
                 f"{where}.export_framing_p must be in [0, 1], got {self.export_framing_p}"
@@ -371,17 +382,22 @@ def few_label_curve(
 
 
 def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dict:
-    """What a sweep of the experiment must have been made from to be reused."""
+    """What a sweep of the experiment must have been made from to be reused: the phantom,
+    subject, seed, scanner, and the subject's sweep pattern (where and how it was scanned)."""
     from resus.acquisition.simulation import phantom_spec, resolve_scene
+    from sim.phantom import Phantom
     from sim.ultrasound.scanner import sweep_preset
 
     scene = resolve_scene("default", settings.phantom, subject)
     preset = sweep_preset(settings.scanner, seed, subject)
+    spec = phantom_spec(scene, seed)
+    path = subject_sweep(settings, subject, seed).trajectory(Phantom(spec), scene.phantom_to_base)
     return {
         "phantom": settings.phantom,
         "subject": subject,
-        "seed": phantom_spec(scene, seed).seed,
+        "seed": spec.seed,
         "scanner": None if preset is None else preset.name,
+        "pattern": json.loads(json.dumps(path.pattern)),
     }
 
 
@@ -412,6 +428,16 @@ def simulate_subjects(
     return paths
 
 
+def subject_sweep(settings: Sim2RealSettings, subject: int, seed: int) -> LinearPattern:
+    """The nominal sweep moved sideways by up to `sweep_offset` and tilted by up to
+    `sweep_tilt_deg`, drawn from (seed, subject): every subject is scanned its own way."""
+    rng = np.random.default_rng([seed, subject, 0x5EE9])
+    offset = rng.uniform(-settings.sweep_offset, settings.sweep_offset)
+    tilt = rng.uniform(-settings.sweep_tilt_deg, settings.sweep_tilt_deg)
+    x, y = settings.sweep.start
+    return dataclasses.replace(settings.sweep, start=(x + offset, y), tilt_deg=tilt)
+
+
 def _simulate_sweep(job: tuple[Path, Sim2RealSettings, int, int]) -> None:
     """One subject's sweep (top level so worker processes can run it)."""
     from resus.acquisition.simulation import resolve_scene, simulate_sweep
@@ -423,7 +449,8 @@ def _simulate_sweep(job: tuple[Path, Sim2RealSettings, int, int]) -> None:
     scene = resolve_scene("default", settings.phantom, subject)
     preset = sweep_preset(settings.scanner, seed, subject)
     partial = path.with_suffix(".partial.h5")
-    simulate_sweep(partial, scene, settings.sweep, seed=seed, preset=preset, progress=False)
+    sweep = subject_sweep(settings, subject, seed)
+    simulate_sweep(partial, scene, sweep, seed=seed, preset=preset, progress=False)
     partial.replace(path)  # a killed run leaves no half sweep under the final name
 
 

@@ -75,6 +75,15 @@ class FemoralAnatomy:
     """Lateral offset of the femur's axis at y = 0."""
     femur_tilt: float = 0.10
     """Lateral drift of the femur's axis per metre along y."""
+    node_count: float = 0.0
+    """Inguinal lymph nodes (its whole part; a float, so subjects can draw it)."""
+    node_radius: float = 0.0025
+    """Half the short axis of a node."""
+    node_length: float = 0.008
+    """Distance between the centres of a node's end caps: its long axis is this plus twice
+    the radius."""
+    node_seed: float = 0.0
+    """Seed (its whole part) of where the nodes lie and how they turn."""
 
 
 def _smoothstep(t: np.ndarray) -> np.ndarray:
@@ -162,6 +171,38 @@ def build_vessels(
         vessel("FV", VEIN, course.vein(distal), fv_radii),
         vessel("GSV", VEIN, gsv, np.asarray(a.gsv_radius)),
     )
+
+
+NODE_DEPTHS = (0.006, 0.014)
+"""Depths of a node's centre below the top line (m): in the superficial fat of the groin."""
+NODE_MEDIAL = (0.002, 0.016)
+"""Medial gap between a node and the common femoral vein's wall (m): the superficial inguinal
+nodes lie beside the femoral vein and the saphenous junction."""
+
+
+def build_nodes(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> tuple[VesselSpec, ...]:
+    """Inguinal lymph nodes: `node_count` capsules (a cylinder with hemispherical caps) in the
+    superficial fat, medial to the vein, each turned by its own angle in the skin's plane
+    (`make_subject` leaves out a node that would touch a vessel). A
+    node whose long axis runs along the leg shows in a transverse image as a disc of the
+    vessels' size, one across it as an oval: hypoechoic shapes that are not vessels."""
+    from sim.phantom.spec import VesselSpec
+
+    a = anatomy
+    rng = np.random.default_rng([int(a.node_seed), 0x10DE])
+    half_y = body.extent_y / 2 - a.node_length - a.node_radius
+    nodes = []
+    for k in range(int(a.node_count)):
+        y = rng.uniform(-half_y, half_y)
+        centre = _Course(a, lateral, -body.extent_y / 2).vein(np.array([y]))[0]
+        turn = rng.uniform(0.0, math.pi)
+        axis = 0.5 * a.node_length * np.array([math.sin(turn), math.cos(turn), 0.0])
+        reach = a.cfv_radius + a.vein_wall + a.node_radius + abs(axis[0])
+        centre[0] -= lateral * (reach + rng.uniform(*NODE_MEDIAL))
+        centre[2] = -rng.uniform(*NODE_DEPTHS)
+        points = np.stack([centre - axis, centre + axis])
+        nodes.append(VesselSpec(f"node{k}", 0, points, np.full(2, a.node_radius)))
+    return tuple(nodes)
 
 
 def build_bones(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> tuple[VesselSpec, ...]:

@@ -17,7 +17,7 @@ from typing import Any
 import yaml
 
 from sim.assets import assets_dir
-from sim.phantom.anatomy import FemoralAnatomy, build_bones, build_vessels
+from sim.phantom.anatomy import FemoralAnatomy, build_bones, build_nodes, build_vessels
 from sim.phantom.spec import (
     DEFAULT_TEXTURE_SCALE,
     BodySpec,
@@ -33,7 +33,7 @@ SCALE_KEYS = ("layer_thickness_scale", "echogenicity_scale", "noise_level")
 ANATOMY_KEYS = tuple(f.name for f in dataclasses.fields(FemoralAnatomy))
 TOP_KEYS = {
     "name", "description", "side", "seed", "noise_level", "body", "layers", "blood", "wall",
-    "bone", "anatomy", "vessels", "bones", "variation", "texture_scale",
+    "bone", "node", "anatomy", "vessels", "bones", "variation", "texture_scale",
 }  # fmt: skip
 MATERIAL_KEYS = ("name", "echogenicity", "attenuation_db_cm_mhz", "impedance_mrayl")
 TEXTURE_KEYS = ("texture_variation", "texture_ridges")
@@ -149,9 +149,11 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         anatomy = FemoralAnatomy(**_mapping(data["anatomy"], "anatomy", ANATOMY_KEYS))
         vessels = build_vessels(anatomy, body, lateral)
         bones = build_bones(anatomy, body, lateral)
+        nodes = build_nodes(anatomy, body, lateral)
     else:
+        nodes = ()
         vessels, bones = _tubes(data["vessels"], "vessels"), _tubes(data.get("bones", []), "bones")
-    bone = data.get("bone")
+    bone, node = data.get("bone"), data.get("node")
     return PhantomSpec(
         name=str(data["name"]),
         side=side,
@@ -162,6 +164,8 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         bone=None if bone is None else _material(bone, "bone"),
         vessels=vessels,
         bones=bones,
+        node=None if node is None else _material(node, "node"),
+        nodes=nodes,
         noise_level=float(data.get("noise_level", 0.2)),
         texture_scale=_texture_scale(data.get("texture_scale", list(DEFAULT_TEXTURE_SCALE))),
         seed=int(data.get("seed", 0)),

@@ -71,9 +71,11 @@ class Phantom:
         self.spec = spec
         self.cell_size = cell_size
         bone = () if spec.bone is None else (spec.bone,)
-        self.materials: tuple[Material, ...] = (*spec.layers, spec.blood, *bone)
+        node = () if spec.node is None else (spec.node,)
+        self.materials: tuple[Material, ...] = (*spec.layers, spec.blood, *bone, *node)
         self._blood_index = len(spec.layers)
         self._bone_index = len(spec.layers) + 1 if bone else -1
+        self._node_index = len(spec.layers) + 1 + len(bone) if node else -1
         self._body_kind, self._body_params = body_shape.body_parameters(spec.body)
         self._layer_bottoms = np.cumsum([layer.thickness for layer in spec.layers[:-1]])
 
@@ -85,6 +87,11 @@ class Phantom:
     @cached_property
     def _bone_index_grid(self) -> TubeIndex:
         chain = SegmentChain.from_tubes(self.spec.bones, list(range(len(self.spec.bones))))
+        return TubeIndex.build(chain, 0.0, self.cell_size)
+
+    @cached_property
+    def _node_index_grid(self) -> TubeIndex:
+        chain = SegmentChain.from_tubes(self.spec.nodes, list(range(len(self.spec.nodes))))
         return TubeIndex.build(chain, 0.0, self.cell_size)
 
     @cached_property
@@ -128,7 +135,7 @@ class Phantom:
             out = TissueSample.empty(len(points))
         elif len(out) != len(points):
             raise ValueError(f"out holds {len(out)} points but {len(points)} were given")
-        vessels, bones = self._vessel_index, self._bone_index_grid
+        vessels, bones, nodes = self._vessel_index, self._bone_index_grid, self._node_index_grid
         sample_points(
             points,
             self._body_kind,
@@ -136,12 +143,15 @@ class Phantom:
             self._layer_bottoms,
             self._blood_index,
             self._bone_index,
+            self._node_index,
             vessels.kernel_grid(),
             vessels.chain.tube,
             vessels.chain.label,
             vessels.cutoff,
             bones.kernel_grid(),
             np.ones(len(bones.chain), np.uint8),
+            nodes.kernel_grid(),
+            np.ones(len(nodes.chain), np.uint8),
             out.label,
             out.material,
             out.depth,

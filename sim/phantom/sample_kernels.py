@@ -55,12 +55,15 @@ def sample_points(
     layer_bottoms,
     blood_index,
     bone_index,
+    node_index,
     vessels,
     segment_tube,
     segment_label,
     cutoff,
     bones,
     bone_label,
+    nodes,
+    node_label,
     label,
     material,
     depth,
@@ -70,7 +73,9 @@ def sample_points(
 ):
     """Everything the ultrasound needs per point, written into the output arrays.
 
-    `vessels` and `bones` are `tube_kernels.Grid`s; the vessels' within `cutoff`.
+    `vessels`, `bones` and `nodes` are `tube_kernels.Grid`s; the vessels' within `cutoff`.
+    A point in a vessel's lumen is blood, else in bone bone, else in a lymph node node, else
+    the layer at its depth (a material index of -1 means none of that kind exists).
     """
     for p in prange(points.shape[0]):
         x, y, z = points[p, 0], points[p, 1], points[p, 2]
@@ -99,3 +104,5 @@ def sample_points(
                 material[p] = layer
                 if bone_index >= 0 and inside_label(x, y, z, bones, bone_label) > 0:
                     material[p] = bone_index
+                elif node_index >= 0 and inside_label(x, y, z, nodes, node_label) > 0:
+                    material[p] = node_index

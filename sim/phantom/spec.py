@@ -101,7 +101,8 @@ class VesselSpec:
 
     The spline is scipy's `CubicSpline` (not-a-knot ends) over the cumulative chord length of the
     control points; the radius is interpolated linearly in that parameter. `label` is 1 (artery)
-    or 2 (vein); bones use label 0. `wall_thickness` is the echogenic wall outside the lumen.
+    or 2 (vein); bones and lymph nodes use label 0. `wall_thickness` is the echogenic wall
+    outside the lumen.
     """
 
     name: str
@@ -166,6 +167,9 @@ class PhantomSpec:
     bone: Material | None
     vessels: tuple[VesselSpec, ...]
     bones: tuple[VesselSpec, ...] = ()
+    node: Material | None = None
+    """Lymph node cortex (hypoechoic); its tubes carry label 0, like bones."""
+    nodes: tuple[VesselSpec, ...] = ()
     noise_level: float = 0.2
     texture_scale: tuple[float, float, float] = DEFAULT_TEXTURE_SCALE
     """Lattice spacing (m) of the texture fields along x, y, z: lobules and fascicles are
@@ -187,6 +191,8 @@ class PhantomSpec:
             raise ValueError("every vessel needs label 1 (artery) or 2 (vein)")
         if self.bones and self.bone is None:
             raise ValueError("bones are given but no bone material")
+        if self.nodes and self.node is None:
+            raise ValueError("lymph nodes are given but no node material")
         if not self.noise_level >= 0:
             raise ValueError(f"noise_level must be >= 0, got {self.noise_level}")
         if len(self.texture_scale) != 3 or not min(self.texture_scale) > 0:

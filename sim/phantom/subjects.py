@@ -4,7 +4,7 @@ Subject k draws every quantity in `spec.variation.ranges` uniformly, from a gene
 by `(spec.seed, k)`, rebuilds the vessels, and keeps the draw only if the vessels fit: artery
 and vein walls at least `min_gap` apart, vessels clear of the bone, and covered by at least
 `min_gap` of tissue inside the body. Otherwise it draws again (same generator), so subject k
-is always the same phantom.
+is always the same phantom. Lymph nodes closer than `min_gap` to a vessel are left out.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.phantom.anatomy import build_bones, build_vessels
+from sim.phantom.anatomy import build_bones, build_nodes, build_vessels
 from sim.phantom.centreline import SegmentChain, TubeSamples, sample_tube
 from sim.phantom.spec import ARTERY, VEIN, BodySpec, PhantomSpec, VesselSpec
 from sim.phantom.tube_kernels import brute_force_distance, pack_segments
@@ -72,9 +72,10 @@ def _tissue_cover(vessel: _SampledVessel, body: BodySpec) -> float:
 
 
 def vessels_fit(
-    vessels: tuple[VesselSpec, ...], bones: tuple[VesselSpec, ...], body: BodySpec, gap: float
+    vessels: tuple[VesselSpec, ...], others: tuple[VesselSpec, ...], body: BodySpec, gap: float
 ) -> bool:
-    """Whether artery and vein (and bone) keep `gap` apart and the vessels stay in the body."""
+    """Whether artery and vein keep `gap` apart, and from the other tubes (bone, lymph nodes),
+    and the vessels stay in the body."""
     sampled = [_SampledVessel.of(v) for v in vessels]
     if min(_tissue_cover(v, body) for v in sampled) < gap:
         return False
@@ -82,7 +83,7 @@ def vessels_fit(
     veins = [v for v in sampled if v.vessel.label == VEIN]
     if _clearance(arteries, veins) < gap:
         return False
-    return _clearance(sampled, [_SampledVessel.of(b) for b in bones]) >= gap
+    return _clearance(sampled, [_SampledVessel.of(other) for other in others]) >= gap
 
 
 def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
@@ -118,6 +119,11 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
             f"phantom {spec.name!r}: no subject {subject} fits in {variation.max_attempts} "
             "draws; narrow the variation ranges"
         )
+    nodes = tuple(  # a node in a vessel's way is left out, not drawn again: no bias on vessels
+        node
+        for node in build_nodes(anatomy, spec.body, spec.lateral_sign)
+        if vessels_fit(vessels, (node,), spec.body, variation.min_gap)
+    )
     layers = tuple(
         dataclasses.replace(
             layer,
@@ -132,6 +138,7 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
         layers=layers,
         vessels=vessels,
         bones=bones,
+        nodes=nodes,
         anatomy=anatomy,
         noise_level=float(draws.get("noise_level", spec.noise_level)),
         subject=subject,

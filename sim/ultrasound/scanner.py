@@ -49,7 +49,8 @@ class ScannerPreset:
     grey_gamma: float = 1.5
     speckle_smoothing: float = 0.15e-3
     """Gaussian sigma (m) of the speckle-reduction filter."""
-    clutter_db: float | None = -10.0
+    clutter_db: float | None = -6.0
+    """Side-lobe haze in lumens (`UltrasoundSettings.clutter_db`); see `RANDOM_RANGES`."""
     electronic_noise_db: float = -12.0
 
     def __post_init__(self) -> None:
@@ -142,7 +143,7 @@ simulator's look before presets existed (bright, high contrast, black lumens).""
 
 RANDOM_RANGES: dict[str, tuple[float, float]] = {
     "centre_frequency": (6.0e6, 14.0e6),
-    "depth": (0.030, 0.060),
+    "depth": (0.020, 0.060),
     "focal_fraction": (0.3, 0.7),
     "f_number": (1.5, 3.0),
     "fractional_bandwidth": (0.5, 0.9),
@@ -151,11 +152,15 @@ RANDOM_RANGES: dict[str, tuple[float, float]] = {
     "tgc_slider_db": (-4.0, 4.0),
     "grey_gamma": (1.1, 2.2),
     "speckle_smoothing": (0.0, 0.3e-3),
-    "clutter_db": (-22.0, -8.0),
+    "clutter_db": (-12.0, -1.0),
     "electronic_noise_db": (-24.0, -10.0),
 }
 """Uniform ranges `random_preset` draws from (focus as a fraction of the depth; each TGC
-slider independently)."""
+slider independently). Clutter: lumens in real linear-array exports are only a few dB darker
+than the tissue beside them, not black (haze from side lobes, reverberation and the grey map:
+in usgra-seg the lumen/tissue grey ratio is 0.60, contrast -4.4 dB); clutter at -4 dB gives
+0.62 and -4.1 dB on the femoral phantom, -15 dB 0.35 and -9.2 dB, so the range spans lumens
+darker and brighter than that one set's."""
 
 
 def random_preset(seed: int) -> ScannerPreset:

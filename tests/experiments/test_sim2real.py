@@ -4,6 +4,7 @@ with known vessels), its scores checked against independent computations."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import shutil
@@ -29,6 +30,7 @@ from resus.experiments.sim2real import (
     repeated_to,
     run_sim2real,
     simulate_subjects,
+    subject_sweep,
     sweep_provenance,
 )
 from resus.experiments.sim2real_report import pretraining_verdict
@@ -104,6 +106,8 @@ def test_too_few_real_images_is_one_error_naming_the_settings():
         ({"training": "huge"}, "unknown preset 'huge'"),
         ({"subjects": ()}, "subjects is empty"),
         ({"export_framing_p": 1.5}, r"export_framing_p must be in \[0, 1\], got 1.5"),
+        ({"sweep_tilt_deg": 50.0}, r"sweep_offset must be >= 0 and sweep_tilt_deg in \[0, 45\)"),
+        ({"training_cpus": 0}, "training_cpus must be at least 1"),
     ],
 )
 def test_settings_refuse_what_cannot_run(changes, message):
@@ -259,12 +263,25 @@ def test_cli_refuses_a_real_folder_it_cannot_use(monkeypatch, capsys, tmp_path, 
     assert not (tmp_path / "o").exists()
 
 
+def test_each_subject_is_scanned_its_own_way_within_the_settings_bounds():
+    sweeps = [subject_sweep(TINY, k, 3) for k in range(40)]
+    offsets = np.array([s.start[0] - TINY.sweep.start[0] for s in sweeps])
+    tilts = np.array([s.tilt_deg for s in sweeps])
+    assert np.abs(offsets).max() <= TINY.sweep_offset and np.abs(tilts).max() <= TINY.sweep_tilt_deg
+    assert offsets.std() > TINY.sweep_offset / 3 and tilts.std() > TINY.sweep_tilt_deg / 3
+    assert all(s.start[1] == TINY.sweep.start[1] and s.length == TINY.sweep.length for s in sweeps)
+    assert subject_sweep(TINY, 5, 3) == sweeps[5] and subject_sweep(TINY, 5, 4) != sweeps[5]
+
+
 def test_a_sweep_is_reused_only_from_the_same_phantom_subject_seed_and_scanner():
     made = sweep_provenance(TINY, 1, 3)
     assert made["phantom"] == "femoral" and made["subject"] == 1
     assert made["scanner"].startswith("random-")
     assert sweep_provenance(TINY, 1, 3) == made
     assert sweep_provenance(TINY, 2, 3) != made and sweep_provenance(TINY, 1, 4) != made
+    assert made["pattern"]["tilt_deg"] == subject_sweep(TINY, 1, 3).tilt_deg  # where it scanned
+    moved = dataclasses.replace(TINY, sweep_offset=0.0)
+    assert sweep_provenance(moved, 1, 3)["pattern"] != made["pattern"]
 
 
 def test_cli_names_a_bad_training_preset(monkeypatch, capsys, tmp_path):

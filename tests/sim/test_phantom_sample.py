@@ -83,3 +83,47 @@ def test_sample_reuses_buffers_and_matches_labels(default_phantom: Phantom) -> N
     assert sample.vessel_index.dtype == np.int16 and sample.vessel_normal.shape == (20_000, 3)
     with pytest.raises(ValueError, match="out holds"):
         default_phantom.sample(points[:10], out=out)
+
+
+def capsule_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
+    """Signed distance to the capsule of `radius` around segment ab (negative inside)."""
+    axis = b - a
+    t = np.clip((points - a) @ axis / (axis @ axis), 0.0, 1.0)
+    return np.linalg.norm(points - (a + t[:, None] * axis), axis=1) - radius
+
+
+def test_lymph_nodes_are_node_material_where_their_capsules_are_and_label_nothing() -> None:
+    """Each subject's inguinal nodes, against the analytic capsule: points inside are the node
+    material (label 0: a node is not a vessel), points outside are the layer at their depth;
+    every node clears the vessels by min_gap and lies medial to the vein."""
+    from sim.phantom import load_phantom
+    from sim.phantom.subjects import make_subject
+
+    nominal = load_phantom("femoral")
+    subject = next(s for s in (make_subject(nominal, k) for k in range(10)) if len(s.nodes) >= 2)
+    phantom = Phantom(subject)
+    node_material = len(phantom.materials) - 1
+    assert phantom.materials[node_material].name == "lymph node"
+    rng = np.random.default_rng(3)
+    for node in subject.nodes:
+        a, b = node.control_points
+        radius = float(node.radii[0])
+        centre = (a + b) / 2
+        points = centre + rng.uniform(-1.0, 1.0, (4000, 3)) * (np.abs(b - a) / 2 + 1.5 * radius)
+        distance = np.min(  # nodes may touch one another: inside any is node material
+            [capsule_distance(points, *n.control_points, float(n.radii[0])) for n in subject.nodes],
+            axis=0,
+        )
+        clear = np.abs(distance) > 1e-6
+        sample = phantom.sample(points[clear])
+        inside = distance[clear] < 0
+        assert inside.sum() > 200 and (~inside).sum() > 200
+        assert (sample.material[inside] == node_material).all()
+        assert (sample.material[~inside] != node_material).all()
+        assert (sample.label[inside] == 0).all()
+        vein = next(v for v in subject.vessels if v.name == "CFV")
+        assert (centre[0] - vein.control_points[:, 0].mean()) * subject.lateral_sign < 0  # medial
+        for label in (1, 2):  # the node keeps min_gap from every lumen (and wall)
+            assert (
+                phantom.vessel_sdf(points[clear][inside], label).min() >= subject.variation.min_gap
+            )
