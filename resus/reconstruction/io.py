@@ -18,7 +18,7 @@ import numpy as np
 
 from resus.errors import ResusError
 from resus.reconstruction.grid import VolumeGrid
-from resus.timestamps import now
+from resus.sweep.timestamps import now
 
 MM = 1e3
 NRRD_SUFFIXES = (".nrrd", ".nhdr")

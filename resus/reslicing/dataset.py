@@ -28,7 +28,7 @@ import numpy as np
 
 from resus.errors import ResusError
 from resus.reslicing.reslice import Reslice, ResliceSettings
-from resus.timestamps import now_iso
+from resus.sweep.timestamps import now_iso
 from sim.labels import LABEL_NAMES
 
 SCHEMA = "resus.reslices/1"

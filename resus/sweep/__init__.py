@@ -9,6 +9,8 @@
 - `cvat`: CVAT segmentation masks (or plain label PNGs) in and out as a sweep's labels.
 - `preview`: a PNG contact sheet of evenly chosen frames.
 - `images`: grey, BGR(A) or RGB(A) images to 8-bit grey, for every path into a Sweep.
+- `timestamps`: what "now" is in every file the testbed writes (the clock, or
+  SOURCE_DATE_EPOCH's time for byte-identical reruns).
 """
 
 from resus import lazy_exports

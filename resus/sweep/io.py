@@ -39,7 +39,7 @@ from resus.sweep.model import (
     check_timestamps,
     check_uint8,
 )
-from resus.timestamps import now_iso
+from resus.sweep.timestamps import now_iso
 from sim.labels import LABEL_NAMES
 
 SCHEMA = "resus.sweep/1"

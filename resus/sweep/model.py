@@ -18,7 +18,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from resus.errors import ResusError
-from resus.timestamps import now_iso
+from resus.sweep.timestamps import now_iso
 from sim.labels import LABEL_NAMES
 from sim.transforms import is_rigid, rigidity_error
 

@@ -119,7 +119,9 @@ def test_a_resumed_ray_run_recomputes_nothing_that_finished(tmp_path):
     results = run_pending(RayExecutor(2), count_and_square, units, "t", "x", progress=False)
     assert results == [k * k for k in range(6)]
     runs = [len((tmp_path / f"ran_{k}").read_text().splitlines()) for k in range(6)]
-    assert runs == [1] * 6  # no unit ran twice
+    # a finished unit did not run again; one still running when unit 2 failed was cancelled
+    # (possibly after its count, before its record) and ran again: that is the resume
+    assert [runs[k] for k in finished] == [1] * len(finished) and max(runs) <= 2
     assert {k: units[k][1].path.stat().st_mtime_ns for k in finished} == finished
 
 

@@ -123,7 +123,6 @@ def test_phantom_report_table_equals_results_json(tmp_path):
         (["subjects", "--subjects", "1"], "--subjects: leave-one-subject-out needs at least 2"),
         (["subjects", "--subjects", "a-b"], "--subjects: expected e.g. 3, 0-7 or 0,2,5"),
         (["subjects", "--regimes", "us,magic"], "--regimes: expected a comma list"),
-        (["phantom", "--jobs", "0"], "--jobs must be at least 1"),
     ],
 )
 def test_cli_bad_input_is_one_line(tmp_path, arguments, message):

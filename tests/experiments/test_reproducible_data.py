@@ -13,7 +13,7 @@ import h5py
 import pytest
 
 from resus.errors import ResusError
-from resus.timestamps import SOURCE_DATE_EPOCH, now_iso
+from resus.sweep.timestamps import SOURCE_DATE_EPOCH, now_iso
 
 pytestmark = pytest.mark.slow  # two processes simulate, reconstruct and reslice a scan
 
