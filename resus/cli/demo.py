@@ -24,7 +24,10 @@ def register(app: typer.Typer) -> None:
             float, typer.Option("--sweep-length", help="Sweep length (m).")
         ] = 0.05,
         epochs: Annotated[int, typer.Option("--epochs", help="Quick U-Net epochs.")] = 8,
-        seed: Annotated[int, typer.Option("--seed", help="Training seed.")] = 0,
+        seed: Annotated[int, typer.Option("--seed", help="First training seed.")] = 0,
+        seeds: Annotated[
+            int, typer.Option("--seeds", help="Training seeds per regime (mean and spread).")
+        ] = 2,
     ) -> None:
         """Simulate, reconstruct, reslice, train with and without RESUS, map vessels, report."""
         from resus.experiments.demo import DemoSettings, run_demo
@@ -36,6 +39,7 @@ def register(app: typer.Typer) -> None:
             sweep_length=("--sweep-length", sweep_length),
             max_epochs=("--epochs", epochs),
             seed=("--seed", seed),
+            seeds=("--seeds", seeds),
         )
         result = run_demo(out, settings)
         summary = result.summary
@@ -43,7 +47,15 @@ def register(app: typer.Typer) -> None:
         resus_map = summary["vessels"]["resus"]["scores"]
         typer.echo(f"\ndemo finished in {summary['total_seconds']:.0f} s; everything is in {out}/")
         for regime, iou in summary["iou"].items():
-            typer.echo(f"  held-out mean IoU, {regime}: {iou['mean']:.3f}")
+            typer.echo(
+                f"  held-out mean IoU, {regime}: {iou['mean']:.3f} ± {iou['mean_std']:.3f} "
+                f"over {iou['n_seeds']} seeds"
+            )
+        mean = next(c for c in summary["comparisons"] if c["metric"] == "mean")
+        typer.echo(
+            f"  {mean['a']} - {mean['b']}: {mean['difference']:+.3f} mean IoU, seed spread "
+            f"{mean['seed_spread']:.3f}: {mean['verdict']}"
+        )
         for vessel, score in resus_map.items():
             msd = score["mean_surface_distance_mm"]
             typer.echo(

@@ -1,11 +1,13 @@
 """`resus experiment phantom|subjects`: the paper's Tables I and II, in simulation.
 
 Every command of the group takes the same run options (`--out`, `--data`, `--seed`,
-`--device`, `--jobs`, `--executor`, `--address`), turned into `RunOptions` by `run_options`.
+`--device`, `--jobs`, `--executor`, `--address`), turned into `RunOptions` by `run_options`;
+`phantom` and `subjects` also take `--seeds` (training seeds per model, `preset_with_seeds`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import shlex
 import sys
 from pathlib import Path
@@ -23,9 +25,26 @@ from resus.cli.parsers import flag_error, parse_index_set, parse_names
 from resus.errors import ResusError
 
 if TYPE_CHECKING:
-    from resus.experiments.tables import RunOptions
+    from resus.experiments.tables import ExperimentPreset, RunOptions
 
 REGIME_HELP = "Comma list of us, imagenet, aug, resus (imagenet needs --weights)."
+SeedsOption = Annotated[
+    int | None,
+    typer.Option(help="Training seeds per model (--seed, --seed + 1, ...) [preset's: 3]."),
+]
+
+
+def preset_with_seeds(name: str, seeds: int | None) -> ExperimentPreset:
+    """The experiment preset called `name` (`--preset`), with `seeds` training seeds per
+    model when given (`--seeds`)."""
+    from resus.experiments.tables import get_experiment_preset
+
+    with flag_error("--preset"):
+        preset = get_experiment_preset(name)
+    if seeds is None:
+        return preset
+    with flag_error("--seeds"):
+        return dataclasses.replace(preset, repeats=seeds)
 
 
 def parse_subjects(text: str) -> list[int]:
@@ -86,21 +105,29 @@ def register(app: typer.Typer) -> None:
             Path | None, typer.Option(help="Scratch folder for sweeps and volumes [OUT/data].")
         ] = None,
         seed: Annotated[int, typer.Option(help="First training seed.")] = 0,
+        seeds: SeedsOption = None,
         device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
         jobs: JobsOption = 2,
         executor: ExecutorOption = "local",
         address: AddressOption = None,
     ) -> None:
         """Table I: train on phantom scan A (frames vs frames + reslices), test on scan B."""
-        from resus.experiments.tables import get_experiment_preset, run_phantom_experiment
+        from resus.experiments.tables import run_phantom_experiment
 
         options = run_options(out, data, seed, device, jobs, executor, address)
-        with flag_error("--preset"):
-            settings = get_experiment_preset(preset)
+        settings = preset_with_seeds(preset, seeds)
         results = run_phantom_experiment(settings, options)
         for trained_on, row in results.iou.items():
-            cells = ", ".join(f"{test} {iou.mean:.3f}" for test, iou in row.items())
+            cells = ", ".join(
+                f"{test} {iou.mean:.3f} ± {iou.mean_std:.3f}" for test, iou in row.items()
+            )
             typer.echo(f"trained on {trained_on}: tested on {cells}")
+        for test, comparisons in results.comparisons.items():
+            mean = next(c for c in comparisons if c.metric == "mean")
+            typer.echo(
+                f"tested on {test}: {mean.a} - {mean.b} {mean.difference:+.3f} mean IoU, "
+                f"seed spread {mean.seed_spread:.3f}: {mean.verdict}"
+            )
         typer.echo(f"wrote {out / 'report.md'}")
 
     @group.command("subjects")
@@ -118,18 +145,18 @@ def register(app: typer.Typer) -> None:
         data: Annotated[
             Path | None, typer.Option(help="Scratch folder for sweeps and volumes [OUT/data].")
         ] = None,
-        seed: Annotated[int, typer.Option(help="Training seed.")] = 0,
+        seed: Annotated[int, typer.Option(help="First training seed.")] = 0,
+        seeds: SeedsOption = None,
         device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
         jobs: JobsOption = 2,
         executor: ExecutorOption = "local",
         address: AddressOption = None,
     ) -> None:
         """Table II: leave-one-subject-out over simulated subjects, per regime, with t-tests."""
-        from resus.experiments.tables import get_experiment_preset, run_subjects_experiment
+        from resus.experiments.tables import run_subjects_experiment
 
         options = run_options(out, data, seed, device, jobs, executor, address)
-        with flag_error("--preset"):
-            settings = get_experiment_preset(preset)
+        settings = preset_with_seeds(preset, seeds)
         from resus.segmentation.loso import REGIMES  # torch: after the quick checks
 
         results = run_subjects_experiment(
@@ -141,7 +168,11 @@ def register(app: typer.Typer) -> None:
         )
         for regime, entry in results.loso.to_dict()["regimes"].items():
             if entry["status"] == "run":
-                typer.echo(f"{regime}: mean IoU {entry['mean_over_subjects']['mean']:.3f}")
+                average = entry["mean_over_subjects"]
+                typer.echo(
+                    f"{regime}: mean IoU {average['mean']:.3f} ± {average['mean_std']:.3f} "
+                    f"over {average['n_seeds']} seeds"
+                )
             else:
                 typer.echo(f"{regime}: not run ({entry['reason']})")
         typer.echo(f"wrote {out / 'report.md'}")

@@ -1,15 +1,19 @@
 """The end-to-end demo: every stage of the pipeline on built-in defaults, into one folder.
 
 Simulate sweeps of a few phantom subjects with the MuJoCo UR3e, reconstruct them, reslice the
-volumes, train the quick U-Net with and without RESUS reslices on all but one subject, segment
-the held-out subject, map its vessels from the predictions, propose a needle site, and write a
-report, the meshes, the volumes for 3D Slicer and a rerun recording of it all.
+volumes, train the quick U-Net with and without RESUS reslices on all but one subject with
+several seeds, score every model on the held-out subject (each IoU a mean and a spread over
+the seeds, the two regimes compared seed by seed), map the held-out subject's vessels from
+the first seed's predictions, propose a needle site, and write a report, the meshes, the
+volumes for 3D Slicer and a rerun recording of it all.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,15 +25,17 @@ from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
 from resus.experiments.data import ScanSettings, SubjectData, prepare_subjects
 from resus.experiments.demo_report import render_report
+from resus.experiments.results import MIN_SEEDS, IoUSummary, compare_models
 from resus.sweep.model import Sweep
 from sim.robot.scene_config import SceneConfig
 
 if TYPE_CHECKING:  # torch is imported only when training starts
     from resus.segmentation.loso import RegimeRun
+    from resus.segmentation.metrics import VesselIoU
     from resus.vessels.pipeline import VesselMapResult
 
 DEMO_REGIMES = ("us", "resus")
-"""Frames only, against frames plus reslices: the comparison RESUS is about."""
+"""Frames only, against frames plus reslices: the comparison RESUS is about (resus is a)."""
 LABEL_SOURCES = ("ground_truth", *DEMO_REGIMES)
 """The held-out sweep's vessels are mapped from its true labels and from each model's."""
 PICTURE_FRAMES = 3
@@ -49,7 +55,11 @@ class DemoSettings:
     max_epochs: int = 8
     """Epochs of the quick U-Net per regime."""
     seed: int = 0
-    """Seed for training (the phantoms are seeded by their subject numbers)."""
+    """First training seed (the phantoms are seeded by their subject numbers)."""
+    seeds: int = 2
+    """Training seeds per regime (seed, seed + 1, ...): each IoU is a mean and a spread over
+    them; the first seed's models segment, map and appear in the pictures. Two keep the demo
+    near 8 minutes on 2 CPU cores (each seed adds about 3.5)."""
 
     def __post_init__(self) -> None:
         if len(set(self.subjects)) != len(self.subjects) or len(self.subjects) < 2:
@@ -64,6 +74,15 @@ class DemoSettings:
             raise ResusError(f"DemoSettings.sweep_length must be positive, got {self.sweep_length}")
         if self.max_epochs < 1:
             raise ResusError(f"DemoSettings.max_epochs must be at least 1, got {self.max_epochs}")
+        if self.seeds < MIN_SEEDS:
+            raise ResusError(
+                f"DemoSettings.seeds must be at least {MIN_SEEDS} (a seed spread needs two "
+                f"seeds), got {self.seeds}"
+            )
+
+    def training_seeds(self) -> tuple[int, ...]:
+        """The seeds each regime is trained with."""
+        return tuple(self.seed + k for k in range(self.seeds))
 
     def scan_settings(self) -> ScanSettings:
         sweep = LinearPattern(start=(0.0, -self.sweep_length / 2), length=self.sweep_length)
@@ -113,12 +132,12 @@ def run_demo(
     runs = _train_regimes(folder / "models", data, settings, progress)
     clock.lap("train")
     test = _HeldOut.load(data[-1])
-    predictions = {regime: _segment(run, test.sweep) for regime, run in runs.items()}
+    predictions = {regime: _segment(seeded[0], test.sweep) for regime, seeded in runs.items()}
     clock.lap("segment")
-    vessels = _map_vessels(folder / "vessels", test, predictions)
+    vessels = _map_vessels(folder / "vessels", test, predictions, progress)
     clock.lap("vessel maps")
     pictures = _pictures(folder, test, predictions)
-    recording = _record(folder / "demo.rrd", test, predictions, runs)
+    recording = _record(folder / "demo.rrd", test, predictions, runs["resus"][0])
     clock.lap("pictures and rerun recording")
     summary = _summary(folder, settings, data, runs, vessels, pictures, clock.seconds)
     (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
@@ -152,8 +171,11 @@ class _HeldOut:
 
 def _train_regimes(
     folder: Path, data: list[SubjectData], settings: DemoSettings, progress: bool
-) -> dict[str, RegimeRun]:
-    """Quick U-Nets for frames only and frames plus reslices, tested on the last subject."""
+) -> dict[str, list[RegimeRun]]:
+    """Quick U-Nets for frames only and frames plus reslices, one per seed, tested on the
+    last subject; checkpoints and curves in `folder/REGIME/seedN/`."""
+    from tqdm import tqdm
+
     from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
     from resus.segmentation.loso import make_split, run_regime
     from resus.segmentation.presets import QUICK
@@ -162,12 +184,16 @@ def _train_regimes(
     frames = load_sweep_frames([d.sweep for d in data])
     reslices = load_reslice_sets([d.reslices for d in data])
     split = make_split(frames, reslices, data[-1].subject, preset.validation_fraction)
-    runs = {}
-    for regime in DEMO_REGIMES:
-        out = folder / regime
+    seeds = settings.training_seeds()
+    runs: dict[str, list[RegimeRun]] = {}
+    for k, (regime, seed) in enumerate(itertools.product(DEMO_REGIMES, seeds), start=1):
+        if progress:
+            count = len(DEMO_REGIMES) * len(seeds)
+            tqdm.write(f"training {regime}, seed {seed} ({k} of {count})", file=sys.stderr)
+        out = folder / regime / f"seed{seed}"
         out.mkdir(parents=True, exist_ok=True)
-        runs[regime] = run_regime(
-            split, regime, preset, seed=settings.seed, out_dir=out, progress=progress
+        runs.setdefault(regime, []).append(
+            run_regime(split, regime, preset, seed=seed, out_dir=out, progress=progress)
         )
     return runs
 
@@ -181,23 +207,26 @@ def _segment(run: RegimeRun, sweep: Sweep) -> np.ndarray:
 
 
 def _map_vessels(
-    folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray]
+    folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray], progress: bool
 ) -> dict[str, VesselMapResult]:
-    """Vessel maps of the held-out sweep from its true labels and from each model's."""
-    from resus.vessels.pipeline import map_vessels
+    """Vessel maps of the held-out sweep from its true labels and from each model's, under
+    one progress bar."""
+    from resus.vessels.pipeline import map_progress, map_vessels
 
     labels = {"ground_truth": test.labels, **predictions}
     sweep_name = str(test.files.sweep)
-    return {
-        source: map_vessels(
-            test.sweep,
-            labels[source],
-            test.scene,
-            folder / source,
-            {"sweep": sweep_name, "labels": source},
-        )
-        for source in LABEL_SOURCES
-    }
+    with map_progress(len(LABEL_SOURCES), progress) as bar:
+        return {
+            source: map_vessels(
+                test.sweep,
+                labels[source],
+                test.scene,
+                folder / source,
+                {"sweep": sweep_name, "labels": source},
+                progress=bar,
+            )
+            for source in LABEL_SOURCES
+        }
 
 
 def _pictures(folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray]) -> list[str]:
@@ -234,10 +263,10 @@ def _pictures(folder: Path, test: _HeldOut, predictions: dict[str, np.ndarray]) 
 
 
 def _record(
-    path: Path, test: _HeldOut, predictions: dict[str, np.ndarray], runs: dict[str, RegimeRun]
+    path: Path, test: _HeldOut, predictions: dict[str, np.ndarray], resus_run: RegimeRun
 ) -> Path:
     """One rerun recording: the held-out scan with the RESUS model's predictions, its volume,
-    reslices, phantom, vessel maps and the RESUS model's training curves."""
+    reslices, phantom, vessel maps and the RESUS model's training curves (first seed)."""
     from resus.acquisition.simulation import phantom_spec
     from resus.reconstruction.io import read_volume
     from resus.reslicing.dataset import ResliceDataset
@@ -265,7 +294,7 @@ def _record(
             log_reslices(session.stream, reslices, test.sweep.label_names, limit=100)
         for source in LABEL_SOURCES:
             log_vessel_map(session.stream, path.parent / "vessels" / source, source)
-        history = [record.to_dict() for record in runs["resus"].training.history]
+        history = [record.to_dict() for record in resus_run.training.history]
         log_training_curves(session.stream, history)
     return path
 
@@ -274,18 +303,21 @@ def _summary(
     folder: Path,
     settings: DemoSettings,
     data: list[SubjectData],
-    runs: dict[str, RegimeRun],
+    runs: dict[str, list[RegimeRun]],
     vessels: dict[str, VesselMapResult],
     pictures: list[str],
     seconds: dict[str, float],
 ) -> dict:
-    """Everything the report shows, as written to summary.json (paths relative to `folder`)."""
+    """Everything the report shows, as written to summary.json (paths relative to `folder`):
+    `seeds`, `iou[regime]` cells and `comparisons` (resus against us, one per IoU metric) as
+    `resus.experiments.results` documents them, `best_epoch[regime]` per seed, `mapped_seed`
+    (whose models segmented, mapped and made the pictures), `vessels`, `files`, `seconds`."""
     test = data[-1]
-    iou = {}
-    for regime, run in runs.items():
-        # _train_regimes tests every regime on the last subject, so each run has a test IoU
-        assert run.test_iou is not None
-        iou[regime] = run.test_iou.to_dict()
+    seeds = settings.training_seeds()
+    iou = {
+        regime: IoUSummary.of([_test_iou(run) for run in seeded]) for regime, seeded in runs.items()
+    }
+    models = [f"models/{regime}/seed{seed}" for regime in runs for seed in seeds]
     return {
         "settings": dataclasses.asdict(settings),
         "subjects": [d.subject for d in data],
@@ -294,8 +326,16 @@ def _summary(
             "test": _frame_count(test.sweep),
             "train": sum(_frame_count(d.sweep) for d in data[:-1]),
         },
-        "iou": iou,
-        "best_epoch": {regime: run.training.best_epoch for regime, run in runs.items()},
+        "seeds": list(seeds),
+        "iou": {regime: cell.to_dict() for regime, cell in iou.items()},
+        "comparisons": [
+            comparison.to_dict()
+            for comparison in compare_models("resus", "us", [iou["resus"]], [iou["us"]])
+        ],
+        "best_epoch": {
+            regime: [run.training.best_epoch for run in seeded] for regime, seeded in runs.items()
+        },
+        "mapped_seed": seeds[0],
         "vessels": {
             source: {
                 "scores": result.scores_to_dict(),
@@ -309,8 +349,8 @@ def _summary(
         },
         "files": {
             "pictures": pictures,
-            "curves": [f"models/{regime}/curves.png" for regime in runs],
-            "checkpoints": [f"models/{regime}/checkpoint.pt" for regime in runs],
+            "curves": [f"{model}/curves.png" for model in models],
+            "checkpoints": [f"{model}/checkpoint.pt" for model in models],
             "vessel_pictures": [
                 f"vessels/{source}/{name}"
                 for source in vessels
@@ -333,6 +373,13 @@ def _summary(
         "seconds": seconds,
         "total_seconds": round(sum(seconds.values()), 1),
     }
+
+
+def _test_iou(run: RegimeRun) -> VesselIoU:
+    """A demo run's IoU on the held-out subject (every demo run has one: its split tests the
+    last subject)."""
+    assert run.test_iou is not None
+    return run.test_iou
 
 
 def _frame_count(sweep_path: Path) -> int:

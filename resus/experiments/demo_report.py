@@ -1,13 +1,16 @@
 """The demo's report.md, written from summary.json's numbers only, with the pictures beside it.
 
 Every number is printed with `number()` (three decimals) so that a reader, or a test, can find
-each value of summary.json in the report exactly as it is rounded there.
+each value of summary.json in the report exactly as it is rounded there. IoUs are printed as
+mean ± standard deviation over the training seeds, with each seed's value, and the regimes'
+comparisons as the experiments' reports print them (`resus.experiments.report`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
+from resus.experiments.report import SPREAD_RULE, comparison_text, seeds_text, spread_text
 from sim.labels import VESSEL_CLASSES
 
 VESSELS = tuple(VESSEL_CLASSES)
@@ -58,29 +61,39 @@ def _run_section(summary: dict) -> list[str]:
         f"- Phantom subjects {', '.join(summary['subjects'])}, each scanned by the simulated UR3e "
         f"in one {number(settings['sweep_length'] * 1e3, 1)} mm linear sweep of "
         f"{settings['image_size']} x {settings['image_size']} frames; reconstructed and resliced.",
-        f"- Quick U-Nets trained (at most {settings['max_epochs']} epochs, seed "
-        f"{settings['seed']}) on {frames['train']} frames of the other subjects, tested on "
-        f"held-out subject **{summary['test_subject']}** ({frames['test']} frames).",
+        f"- Quick U-Nets trained (at most {settings['max_epochs']} epochs, "
+        f"{seeds_text(summary['seeds'])}) on {frames['train']} frames of the other subjects, "
+        f"tested on held-out subject **{summary['test_subject']}** ({frames['test']} frames).",
         "",
         *_table(["stage", "wall time (s)"], stages),
     ]
 
 
 def _segmentation_section(summary: dict) -> list[str]:
+    seeds = ", ".join(map(str, summary["seeds"]))
     rows = [
         [
             REGIME_TITLES.get(regime, regime),
-            number(iou["artery"]),
-            number(iou["vein"]),
-            number(iou["mean"]),
-            str(summary["best_epoch"][regime]),
+            spread_text(iou, "artery"),
+            spread_text(iou, "vein"),
+            spread_text(iou, "mean"),
+            ", ".join(number(run["mean"]) for run in iou["runs"]),
+            ", ".join(map(str, summary["best_epoch"][regime])),
         ]
         for regime, iou in summary["iou"].items()
     ]
+    header = ["model", "artery IoU", "vein IoU", "mean IoU", f"mean IoU, seeds {seeds}"]
     return [
         "## Segmentation of the held-out subject",
         "",
-        *_table(["model", "artery IoU", "vein IoU", "mean IoU", "best epoch"], rows),
+        f"Mean ± sample standard deviation over {seeds_text(summary['seeds'])}; paired "
+        f"t-tests pair the two regimes seed by seed. {SPREAD_RULE}",
+        "",
+        *_table([*header, "best epochs"], rows),
+        *[f"- {comparison_text(comparison)}" for comparison in summary["comparisons"]],
+        "",
+        f"The pictures and the vessel maps below use the seed-{summary['mapped_seed']} models.",
+        "",
         "![predictions](predictions.png)",
         "",
         "Training curves: "

@@ -2,6 +2,9 @@
 
 Every number in a report's tables is read from the results dictionary that is also written
 as results.json (the results' `to_dict()`), rounded to three decimals, so the two always agree.
+An IoU is printed as its mean and sample standard deviation over the training seeds
+(`spread_text`), a comparison with its difference, seed spread, paired t-test and verdict
+(`comparison_text`); the demo's report uses the same two.
 """
 
 from __future__ import annotations
@@ -117,6 +120,33 @@ def _figures(names: Sequence[str]) -> list[str]:
     return [f"![{name}]({name})" for name in names]
 
 
+def spread_text(cell: dict, metric: str = "mean") -> str:
+    """An IoU cell of results.json (or summary.json) as "mean ± std" over the seeds."""
+    return f"{cell[metric]:.3f} ± {cell[f'{metric}_std']:.3f}"
+
+
+def comparison_text(comparison: dict) -> str:
+    """A comparison of results.json (or summary.json): difference, seed spread, paired
+    t-test and, in bold, the verdict."""
+    return (
+        f"{comparison['a']} against {comparison['b']}, {comparison['metric']} IoU: difference "
+        f"{comparison['difference']:+.3f}, seed spread {comparison['seed_spread']:.3f}, paired "
+        f"t-test p = {_p(comparison['p_value'])} (n = {comparison['n']}): "
+        f"**{comparison['verdict']}**"
+    )
+
+
+def seeds_text(seeds: Sequence[int]) -> str:
+    """How the reports say which seeds a figure is over."""
+    return f"{len(seeds)} training seeds ({', '.join(map(str, seeds))})"
+
+
+SPREAD_RULE = (
+    "A difference no larger than the seed spread (the larger of the two models' standard "
+    "deviations over seeds) is reported as no difference."
+)
+
+
 def write_phantom_report(out: Path, phantom: PhantomResults, figures: ReportFigures) -> Path:
     """report.md, results.json and figures of the phantom experiment."""
     out = Path(out)
@@ -125,7 +155,6 @@ def write_phantom_report(out: Path, phantom: PhantomResults, figures: ReportFigu
     curves = _write_json_and_figures(out, results, figures, titles)
     iou = results["iou"]
     tests = list(next(iter(iou.values())))
-    seeds = results["seeds"]
     header = [
         "| trained on scan A | " + " | ".join(f"tested on scan B {t}" for t in tests) + " |",
         "| --- |" + " --- |" * len(tests),
@@ -134,21 +163,30 @@ def write_phantom_report(out: Path, phantom: PhantomResults, figures: ReportFigu
         f"# Phantom experiment (Table I analogue), preset {results['preset']['name']}",
         "",
         "Two scans of the gel-block phantom (nominal anatomy): scan A trains, scan B tests "
-        "(another start point and a tilt). Mean vessel IoU (artery and vein averaged), mean "
-        f"over {len(seeds)} training seeds {seeds} (standard deviation in brackets).",
+        "(another start point and a tilt). Mean vessel IoU (artery and vein averaged): mean ± "
+        f"sample standard deviation over {seeds_text(results['seeds'])}.",
         "",
         *header,
     ]
     for trained_on, row in iou.items():
-        cells = [f"{row[t]['mean']:.3f} ({row[t]['mean_std']:.3f})" for t in tests]
+        cells = [spread_text(row[t]) for t in tests]
         lines.append(f"| {trained_on} | " + " | ".join(cells) + " |")
     lines += ["", "Artery / vein IoU:", "", *header]
     for trained_on, row in iou.items():
-        cells = [f"{row[t]['artery']:.3f} / {row[t]['vein']:.3f}" for t in tests]
+        cells = [f"{spread_text(row[t], 'artery')} / {spread_text(row[t], 'vein')}" for t in tests]
         lines.append(f"| {trained_on} | " + " | ".join(cells) + " |")
+    lines += ["", f"Each seed's mean IoU, seeds {', '.join(map(str, results['seeds']))}:", ""]
+    for trained_on, row in iou.items():
+        for test in tests:
+            runs = ", ".join(f"{run['mean']:.3f}" for run in row[test]["runs"])
+            lines.append(f"- trained on {trained_on}, tested on {test}: {runs}")
+    lines += ["", "## Frames + reslices against frames only", "", SPREAD_RULE, ""]
+    for test, comparisons in results["comparisons"].items():
+        lines += [f"Tested on scan B {test}:", ""]
+        lines += [f"- {comparison_text(comparison)}" for comparison in comparisons]
+        lines.append("")
     scans = results["scans"]
     lines += [
-        "",
         f"Scan A: {scans['A']['frames']} frames ({results['training_images']['frames']} for "
         f"training, {results['training_images']['validation_frames']} for validation), "
         f"{scans['A']['reslices']} reslices. Scan B: {scans['B']['frames']} frames, "
@@ -158,31 +196,35 @@ def write_phantom_report(out: Path, phantom: PhantomResults, figures: ReportFigu
     return _write_report(out, lines, curves, results)
 
 
-def p_values_against(loso: dict, reference: str, metric: str) -> dict[str, float | None]:
-    """Paired t-test p-value of every other regime against `reference` on `metric`."""
+def comparisons_against(loso: dict, reference: str, metric: str) -> dict[str, dict]:
+    """Every other regime's comparison with `reference` on `metric`, by that regime (its
+    p-value and verdict read the same whichever way round it was made)."""
     found = {}
-    for test in loso["paired_t_tests"]:
-        if test["metric"] == metric and reference in (test["a"], test["b"]):
-            other = test["b"] if test["a"] == reference else test["a"]
-            found[other] = test["p_value"]
+    for comparison in loso["comparisons"]:
+        if comparison["metric"] == metric and reference in (comparison["a"], comparison["b"]):
+            other = comparison["b"] if comparison["a"] == reference else comparison["a"]
+            found[other] = comparison
     return found
 
 
 def subjects_table(results: dict) -> list[str]:
-    """Markdown: mean IoU per held-out subject and regime, the average, p-values vs resus."""
+    """Markdown: mean IoU per held-out subject and regime (mean ± std over seeds), the
+    average, and each regime against resus (paired t-test p, verdict)."""
     loso = results["loso"]
     run = {r: e for r, e in loso["regimes"].items() if e["status"] == "run"}
     regimes = list(run)
     lines = ["| held-out subject | " + " | ".join(regimes) + " |", "| --- |" + " --- |" * len(run)]
     for subject in loso["subjects"]:
-        cells = [f"{run[r]['iou'][subject]['mean']:.3f}" for r in regimes]
+        cells = [spread_text(run[r]["iou"][subject]) for r in regimes]
         lines.append(f"| {subject} | " + " | ".join(cells) + " |")
-    average = [f"**{run[r]['mean_over_subjects']['mean']:.3f}**" for r in regimes]
+    average = [f"**{spread_text(run[r]['mean_over_subjects'])}**" for r in regimes]
     lines.append("| **average** | " + " | ".join(average) + " |")
     if "resus" in run:
-        p_values = p_values_against(loso, "resus", "mean")
-        cells = [_p(p_values.get(r)) if r != "resus" else "" for r in regimes]
-        lines.append("| p vs resus | " + " | ".join(cells) + " |")
+        against = comparisons_against(loso, "resus", "mean")
+        p_values = [_p(against[r]["p_value"]) if r != "resus" else "" for r in regimes]
+        verdicts = [against[r]["verdict"] if r != "resus" else "" for r in regimes]
+        lines.append("| p vs resus | " + " | ".join(p_values) + " |")
+        lines.append("| verdict vs resus | " + " | ".join(verdicts) + " |")
     return lines
 
 
@@ -205,8 +247,10 @@ def write_subjects_report(out: Path, subjects: SubjectsResults, figures: ReportF
         "Leave-one-subject-out over simulated subjects (variants of the gel-block phantom: "
         "anatomy, echogenicity and noise differ). Each cell: vessel IoU (artery and vein "
         "averaged) on the held-out subject's frames, pooled over its frames, of a model "
-        f"trained on the other subjects (seed {results['seed']}). p: two-sided paired t-test "
-        "across subjects against resus.",
+        "trained on the other subjects: mean ± sample standard deviation over "
+        f"{seeds_text(results['seeds'])}; the average is taken over subjects seed by seed. "
+        "p: two-sided paired t-test against resus, one pair per held-out subject and seed. "
+        + SPREAD_RULE,
         "",
         *subjects_table(results),
         "",
@@ -215,15 +259,17 @@ def write_subjects_report(out: Path, subjects: SubjectsResults, figures: ReportF
         "| regime | artery | vein | artery p vs resus | vein p vs resus |",
         "| --- | --- | --- | --- | --- |",
     ]
-    artery_p = p_values_against(loso, "resus", "artery")
-    vein_p = p_values_against(loso, "resus", "vein")
+    artery = comparisons_against(loso, "resus", "artery")
+    vein = comparisons_against(loso, "resus", "vein")
     for regime, entry in run.items():
         mean = entry["mean_over_subjects"]
         lines.append(
-            f"| {regime} | {mean['artery']:.3f} | {mean['vein']:.3f} | "
-            f"{_p(artery_p.get(regime)) if regime != 'resus' else ''} | "
-            f"{_p(vein_p.get(regime)) if regime != 'resus' else ''} |"
+            f"| {regime} | {spread_text(mean, 'artery')} | {spread_text(mean, 'vein')} | "
+            f"{_p(artery[regime]['p_value']) if regime != 'resus' else ''} | "
+            f"{_p(vein[regime]['p_value']) if regime != 'resus' else ''} |"
         )
+    lines += ["", "## Every pair of regimes", ""]
+    lines += [f"- {comparison_text(comparison)}" for comparison in loso["comparisons"]]
     for regime, entry in loso["regimes"].items():
         if entry["status"] != "run":
             lines.append(f"\n{regime}: not run ({entry['reason']})")
@@ -252,9 +298,9 @@ def _generalisation_lines(check: dict) -> list[str]:
         return [check["verdict"]]
     verdict = "yes" if check["subjects_differ_enough"] else "no"
     return [
-        f"The `us` regime scores {check['us_within_subject_iou']:.3f} mean IoU on held-out "
-        f"frames of its training subjects (the validation tail of each sweep) and "
-        f"{check['us_held_out_subject_iou']:.3f} on the held-out subject: a gap of "
+        f"The `us` regime scores {check['us_within_subject_iou']:.3f} mean IoU (mean over "
+        "seeds) on held-out frames of its training subjects (the validation tail of each "
+        f"sweep) and {check['us_held_out_subject_iou']:.3f} on the held-out subject: a gap of "
         f"{check['gap']:+.3f}; its held-out IoU varies by "
         f"{check['held_out_iou_std_over_subjects']:.3f} "
         f"(standard deviation) over subjects. Generalising across subjects is a real problem "

@@ -3,9 +3,14 @@
 - `run_phantom_experiment` (Table I): two scans of the gel-block phantom from different start
   points and tilts. A U-Net is trained on scan A's frames, or on scan A's frames plus the
   reslices of scan A's volume, and scored on scan B's frames and on scan B's frames plus
-  reslices: a 2 x 2 IoU table (each cell the mean over `repeats` seeds).
+  reslices: a 2 x 2 IoU table.
 - `run_subjects_experiment` (Table II): leave-one-subject-out over simulated subjects for the
-  regimes us / imagenet / aug / resus, IoU per subject, the average, and paired t-tests.
+  regimes us / imagenet / aug / resus, IoU per subject and the average.
+
+Every training run is repeated with the preset's `repeats` seeds (seed, seed + 1, ...): each
+IoU is reported as its mean and sample standard deviation over them, and every comparison
+of two models is a paired t-test over the seeds (and held-out subjects) with a verdict that
+calls a difference within the seed spread "no difference" (`results.SeedComparison`).
 
 An `ExperimentPreset` fixes data size and training together, and what one training run needs
 (CPUs, a GPU share). Both experiments run their scans and their training runs as resumable
@@ -21,7 +26,6 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -37,12 +41,15 @@ from resus.experiments.data import (
     scan_record,
 )
 from resus.experiments.results import (
+    MIN_SEEDS,
     GeneralisationCheck,
     IoUSummary,
     PhantomResults,
     RunRecord,
     ScanImages,
+    SeededLoso,
     SubjectsResults,
+    compare_models,
 )
 from resus.experiments.training_units import (
     HELD_OUT_TEST,
@@ -61,9 +68,6 @@ from resus.segmentation.presets import PAPER, QUICK, TrainingPreset
 from resus.workers import available_cores
 from sim.labels import ARTERY, VEIN
 
-if TYPE_CHECKING:  # torch is imported only when training starts
-    from resus.segmentation.loso import LosoResult
-
 
 @dataclass(frozen=True)
 class ExperimentPreset:
@@ -77,7 +81,8 @@ class ExperimentPreset:
     phantom_scans: tuple[LinearPattern, LinearPattern]
     """Scan A (training) and scan B (test) of the phantom experiment."""
     repeats: int = 3
-    """Phantom experiment: training seeds per table cell (seed, seed + 1, ...)."""
+    """Training seeds of every training run (seed, seed + 1, ...): each IoU is a mean and a
+    spread over them (at least `MIN_SEEDS`)."""
     training_cpus: int = 1
     """CPU cores of one training run, and its torch threads (part of what a run's result
     depends on, so the same whichever engine runs it)."""
@@ -90,6 +95,15 @@ class ExperimentPreset:
             self.training_resources()
         except ResusError as error:
             raise ResusError(f"ExperimentPreset {self.name!r}: {error}") from None
+        if self.repeats < MIN_SEEDS:
+            raise ResusError(
+                f"ExperimentPreset.repeats must be at least {MIN_SEEDS} (a seed spread needs "
+                f"two seeds), got {self.repeats}"
+            )
+
+    def seeds(self, first: int) -> tuple[int, ...]:
+        """The training seeds of a run whose first seed is `first`."""
+        return tuple(first + r for r in range(self.repeats))
 
     def training_resources(self) -> Resources:
         """What the executor reserves for one training run."""
@@ -167,6 +181,7 @@ class RunOptions:
     data: Path
     """Scratch folder for sweeps, volumes and reslices (cached between runs)."""
     seed: int = 0
+    """The first training seed (the preset's `repeats` seeds count on from it)."""
     device: str = "auto"
     jobs: int = 2
     """CPU cores of the local executor (its worker processes), or of a Ray started here."""
@@ -271,7 +286,7 @@ def run_phantom_experiment(preset: ExperimentPreset, options: RunOptions) -> Pha
     start = time.perf_counter()
     scan_a, scan_b = preset.phantom_scans
     scans = [Scan("phantom_scan_a", None, scan_a), Scan("phantom_scan_b", None, scan_b)]
-    seeds = tuple(options.seed + r for r in range(preset.repeats))
+    seeds = preset.seeds(options.seed)
     with _executor(options) as executor:
         data = prepare_scans(
             options.data, scans, preset.scans, progress=options.progress, executor=executor
@@ -303,6 +318,14 @@ def run_phantom_experiment(preset: ExperimentPreset, options: RunOptions) -> Pha
         histories[trained_on] = outcome[first].summary
         model = load_unit_model(units[first], device)
         _predict_examples(examples, trained_on, model, preset.training)
+    iou = {
+        trained_on: {
+            test: IoUSummary.of([outcome[(regime, seed)].test_iou[test] for seed in seeds])
+            for test in PHANTOM_TESTS
+        }
+        for regime, trained_on in PHANTOM_TRAINING.items()
+    }
+    with_reslices, frames_only = PHANTOM_TRAINING["resus"], PHANTOM_TRAINING["us"]
     results = PhantomResults(
         preset=preset,
         seeds=seeds,
@@ -314,12 +337,12 @@ def run_phantom_experiment(preset: ExperimentPreset, options: RunOptions) -> Pha
         },
         training_frames=len(split.train[0]),
         validation_frames=len(split.validation[0]),
-        iou={
-            trained_on: {
-                test: IoUSummary.of([outcome[(regime, seed)].test_iou[test] for seed in seeds])
-                for test in PHANTOM_TESTS
-            }
-            for regime, trained_on in PHANTOM_TRAINING.items()
+        iou=iou,
+        comparisons={
+            test: compare_models(
+                with_reslices, frames_only, [iou[with_reslices][test]], [iou[frames_only][test]]
+            )
+            for test in PHANTOM_TESTS
         },
         run=_run_record(options, engine, outcomes, preset, start, prepared),
     )
@@ -360,6 +383,7 @@ def run_subjects_experiment(
         raise ResusError(f"leave-one-subject-out needs at least 2 subjects, got {subjects}")
     if encoder_weights is not None and not Path(encoder_weights).is_file():
         raise ResusError("no such encoder weights file", encoder_weights)
+    seeds = preset.seeds(options.seed)
     start = time.perf_counter()
     with _executor(options) as executor:
         data = prepare_subjects(
@@ -369,13 +393,14 @@ def run_subjects_experiment(
         frames = load_sweep_frames([d.sweep for d in data])
         reslices = load_reslice_sets([d.reslices for d in data])
         ids = subjects_of(frames)
-        loso = LosoResult(ids)
+        admitted = LosoResult(ids)
         units = [
             _training_unit(
-                "subjects", regime, subject, options.seed, data, preset, options, encoder_weights
+                "subjects", regime, subject, seed, data, preset, options, encoder_weights
             )
-            for regime in loso.admit(regimes, reslices, encoder_weights)
+            for regime in admitted.admit(regimes, reslices, encoder_weights)
             for subject in ids
+            for seed in seeds
         ]
         outcomes = run_training_units(
             executor, units, preset.training_resources(), options.progress
@@ -385,21 +410,26 @@ def run_subjects_experiment(
     device = resolve_device(options.device)
     example_set = next(s for s in frames if s.subject == ids[0])
     examples = [_example(f"held-out subject {ids[0]}, frame", example_set)]
-    validation_iou: dict[str, dict[str, VesselIoU]] = {}
+    test_runs: dict[str, dict[str, list[VesselIoU]]] = {}
+    validation_runs: dict[str, dict[str, list[VesselIoU]]] = {}
     training_images: dict[str, dict[str, int]] = {}
     histories = {}
     for unit, outcome in zip(units, outcomes, strict=True):
         regime, subject = unit.regime, unit.held_out
-        loso.iou.setdefault(regime, {})[subject] = outcome.test_iou[HELD_OUT_TEST]
-        validation_iou.setdefault(regime, {})[subject] = outcome.validation_iou
+        test_runs.setdefault(regime, {}).setdefault(subject, []).append(
+            outcome.test_iou[HELD_OUT_TEST]
+        )
+        validation_runs.setdefault(regime, {}).setdefault(subject, []).append(
+            outcome.validation_iou
+        )
         training_images.setdefault(regime, {})[subject] = outcome.train_images
-        if subject == ids[0]:  # curves and example predictions of the first held-out subject
+        if subject == ids[0] and unit.seed == seeds[0]:  # the first fold's curves, examples
             histories[regime] = outcome.summary
             _predict_examples(examples, regime, load_unit_model(unit, device), preset.training)
-    loso.compare()
+    loso = SeededLoso(tuple(ids), seeds, _summaries(test_runs), dict(admitted.not_run))
+    validation_iou = _summaries(validation_runs)
     results = SubjectsResults(
         preset=preset,
-        seed=options.seed,
         subject_numbers=subjects,
         images=tuple(
             ScanImages(s.subject, len(s), len(r)) for s, r in zip(frames, reslices, strict=True)
@@ -414,23 +444,33 @@ def run_subjects_experiment(
     return results
 
 
+def _summaries(
+    runs: dict[str, dict[str, list[VesselIoU]]],
+) -> dict[str, dict[str, IoUSummary]]:
+    """Regime -> subject -> each seed's IoU, summarised over the seeds."""
+    return {
+        regime: {subject: IoUSummary.of(ious) for subject, ious in per_subject.items()}
+        for regime, per_subject in runs.items()
+    }
+
+
 GAP_THRESHOLD = 0.05
 """Mean-IoU drop (or spread over subjects) above which subjects count as really different."""
 
 
 def generalisation_check(
-    loso: LosoResult, validation_iou: dict[str, dict[str, VesselIoU]]
+    loso: SeededLoso, validation_iou: dict[str, dict[str, IoUSummary]]
 ) -> GeneralisationCheck | None:
     """Do the subjects differ enough that generalising across them is a real problem?
 
-    Compares the `us` regime's IoU on its training subjects' held-out validation frames
-    (within-subject) with its IoU on the held-out subject, and the spread over subjects;
-    None when the `us` regime did not run.
+    Compares the `us` regime's IoU (mean over seeds) on its training subjects' held-out
+    validation frames (within-subject) with its IoU on the held-out subject, and the spread
+    over subjects; None when the `us` regime did not run.
     """
     if "us" not in loso.iou:
         return None
-    test = [iou.mean for iou in loso.iou["us"].values()]
-    within = [iou.mean for iou in validation_iou["us"].values()]
+    test = [cell.mean for cell in loso.iou["us"].values()]
+    within = [cell.mean for cell in validation_iou["us"].values()]
     gap = float(np.mean(within) - np.mean(test))
     spread = float(np.std(test))
     return GeneralisationCheck(

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import random
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -175,44 +175,82 @@ def train_model(
 
     history: list[EpochRecord] = []
     best_loss, best_epoch, best_state = float("inf"), 0, None
-    epochs = tqdm(
-        range(1, preset.max_epochs + 1),
-        desc="train",
-        unit="epoch",
-        leave=False,
-        disable=not progress,
-    )
-    for epoch in epochs:
-        train_loss, seconds = train_one_epoch(model, loader, loss_function, optimiser, device)
-        validation_loss, validation_iou = evaluate(
-            model, validation_data, loss_function, preset.evaluation_batch_size
-        )
-        history.append(
-            EpochRecord(
-                epoch, train_loss, validation_loss, validation_iou, len(train_data) / seconds
+    with TrainingProgress(preset.max_epochs, len(loader), progress) as bar:
+        for epoch in range(1, preset.max_epochs + 1):
+            train_loss, seconds = train_one_epoch(
+                model, loader, loss_function, optimiser, device, bar.batch_done
             )
-        )
-        epochs.set_postfix(
-            train=f"{train_loss:.3f}",
-            val=f"{validation_loss:.3f}",
-            iou=f"{validation_iou.mean:.3f}",
-        )
-        if not np.isfinite(validation_loss):
-            raise ResusError(
-                f"training diverged: validation loss {validation_loss} at epoch {epoch} "
-                "(lower TrainingPreset.learning_rate)"
+            validation_loss, validation_iou = evaluate(
+                model, validation_data, loss_function, preset.evaluation_batch_size
             )
-        if validation_loss < best_loss:
-            best_loss, best_epoch = validation_loss, epoch
-            best_state = {key: value.detach().clone() for key, value in model.state_dict().items()}
-            config["best_epoch"] = epoch
-            if checkpoint_path is not None:
-                save_checkpoint(checkpoint_path, model, config)
-        elif epoch - best_epoch >= preset.patience:
-            break
+            history.append(
+                EpochRecord(
+                    epoch, train_loss, validation_loss, validation_iou, len(train_data) / seconds
+                )
+            )
+            bar.epoch_done(history[-1])
+            if not np.isfinite(validation_loss):
+                raise ResusError(
+                    f"training diverged: validation loss {validation_loss} at epoch {epoch} "
+                    "(lower TrainingPreset.learning_rate)"
+                )
+            if validation_loss < best_loss:
+                best_loss, best_epoch = validation_loss, epoch
+                best_state = {
+                    key: value.detach().clone() for key, value in model.state_dict().items()
+                }
+                config["best_epoch"] = epoch
+                if checkpoint_path is not None:
+                    save_checkpoint(checkpoint_path, model, config)
+            elif epoch - best_epoch >= preset.patience:
+                break
     model.load_state_dict(best_state)
     stopped_early = len(history) < preset.max_epochs
     return TrainingResult(model.eval(), config, history, best_epoch, stopped_early)
+
+
+class TrainingProgress:
+    """A bar over every training batch of a run, with its rate and the time left.
+
+    The first batch (memory allocation, first calls of the kernels) takes many times longer
+    than the others, so it is shown as a warm-up step of its own, and the batch bar starts
+    after it. That bar's rate is the plain average since then (no smoothing, so the
+    validation passes between epochs count too): the time left in the first epoch is not
+    dominated by the warm-up, nor thrown about by the pause at each epoch's end.
+    """
+
+    def __init__(self, epochs: int, batches_per_epoch: int, enabled: bool = True) -> None:
+        self._epochs = epochs
+        self._total = epochs * batches_per_epoch
+        self._enabled = enabled
+        self._warmed_up = False
+        self._bar = tqdm(total=1, desc="train warm-up", unit="batch", leave=False,
+                         disable=not enabled)  # fmt: skip
+
+    def batch_done(self) -> None:
+        """Count one training batch; the first ends the warm-up."""
+        self._bar.update()
+        if self._warmed_up:
+            return
+        self._warmed_up = True
+        self._bar.close()
+        self._bar = tqdm(total=self._total, initial=1, desc="train", unit="batch", leave=False,
+                         smoothing=0, disable=not self._enabled)  # fmt: skip
+
+    def epoch_done(self, record: EpochRecord) -> None:
+        """Show the epoch reached and its losses and validation IoU."""
+        self._bar.set_postfix(
+            epoch=f"{record.epoch}/{self._epochs}",
+            train=f"{record.train_loss:.3f}",
+            val=f"{record.validation_loss:.3f}",
+            iou=f"{record.validation_iou.mean:.3f}",
+        )
+
+    def __enter__(self) -> TrainingProgress:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self._bar.close()
 
 
 def train_one_epoch(
@@ -221,8 +259,10 @@ def train_one_epoch(
     loss_function: nn.Module,
     optimiser: torch.optim.Optimizer,
     device: torch.device,
+    on_batch: Callable[[], None] | None = None,
 ) -> tuple[float, float]:
-    """One pass over `loader`: (mean loss per image, seconds taken)."""
+    """One pass over `loader`: (mean loss per image, seconds taken); `on_batch()` after each
+    batch (a progress bar)."""
     model.train()
     total, count = 0.0, 0
     start = time.perf_counter()
@@ -234,6 +274,8 @@ def train_one_epoch(
         optimiser.step()
         total += loss.item() * len(images)
         count += len(images)
+        if on_batch is not None:
+            on_batch()
     return total / count, time.perf_counter() - start
 
 

@@ -129,7 +129,6 @@ def build_vessel_map(
     image_to_probe: np.ndarray,
     frame: AnatomicalFrame,
     settings: VesselMapSettings | None = None,
-    progress: bool = False,
 ) -> VesselMap:
     """Map the vessels of a sweep from its (N, H, W) label images (0 / 1 artery / 2 vein)."""
     settings = settings or VesselMapSettings()
@@ -141,7 +140,7 @@ def build_vessel_map(
     grid = vessel_grid(labels, poses, image_to_probe, settings.spacing, settings.margin)
     compound = functools.partial(
         reconstruct, poses=poses, image_to_probe=image_to_probe, grid=grid,
-        settings=settings.reconstruction, progress=progress, total=len(poses),
+        settings=settings.reconstruction,
     )  # fmt: skip
     bmode = compound(frames, labels=labels, n_classes=len(LABEL_NAMES))
     # labels and n_classes >= 2 were given, so the reconstruction has a label volume

@@ -6,13 +6,16 @@ that `resus vessels` and `resus demo` give the same files and the same numbers.
 
 from __future__ import annotations
 
+import contextlib
 import json
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import trimesh
+from tqdm import tqdm
 
 from resus.errors import ResusError
 from resus.reconstruction.grid import VolumeGrid
@@ -28,6 +31,10 @@ from sim.transforms import invert_pose
 if TYPE_CHECKING:
     from sim.phantom import Phantom
     from sim.robot.scene_config import SceneConfig
+
+
+MAP_STEPS = ("vessel map", "needle site", "scores", "files")
+"""The steps of `map_vessels`, one tick each on its progress bar."""
 
 
 @dataclass(frozen=True)
@@ -114,61 +121,127 @@ def map_vessels(
     out: Path,
     sources: dict[str, str],
     job: VesselJob | None = None,
-    progress: bool = False,
+    progress: bool | tqdm = False,
 ) -> VesselMapResult:
     """Map the vessels of `sweep` from `labels`, plan the needle, score a simulated sweep
     against its phantom, and write meshes, the label volume, pictures and `vessels.json`
-    into `out`. `sources` names the sweep and the labels in the metrics."""
-    job = job or VesselJob()
-    out.mkdir(parents=True, exist_ok=True)
-    frame = AnatomicalFrame.from_scene(scene)
-    vessel_map = build_vessel_map(
-        sweep.frames, labels, sweep.probe_to_base, sweep.image_to_probe, frame, job.map,
-        progress=progress,
-    )  # fmt: skip
-    tracks = {
-        name: vessel_track(vessel_map.labels == label, vessel_map.grid, frame.proximal)
-        for name, label in VESSEL_CLASSES.items()
-    }
-    other = next(name for name in VESSEL_CLASSES if name != job.target)
-    skin = SkinModel.from_poses(sweep.probe_to_base)
-    plan = plan_needle(
-        tracks[job.target], job.target, vessel_map.meshes.get(other), skin, vessel_map.covered,
-        vessel_map.label_at, VESSEL_CLASSES[job.target], job.needle,
-    )  # fmt: skip
-    scores, not_scored, checked, truth_meshes = None, "", None, {}
-    if sweep.source == "sim":
-        from resus.acquisition.simulation import simulated_truth
-        from sim.phantom import Phantom
+    into `out`. `sources` names the sweep and the labels in the metrics.
 
-        truth = Phantom(simulated_truth(scene, sweep.provenance))
-        scores = score_map(vessel_map, truth, scene.phantom_to_base, tracks)
-        if plan.safe:
-            checked = needle_truth(
-                plan.path(job.needle.path_step),
-                VESSEL_CLASSES[job.target],
-                truth,
-                invert_pose(scene.phantom_to_base),
-            )
-        truth_meshes = _truth_in_box(truth, scene.phantom_to_base, vessel_map)
-    else:
-        not_scored = f"not scored: the sweep's source is {sweep.source!r}, not 'sim'"
-    written = _write_files(out, vessel_map, plan, tracks[job.target], skin, truth_meshes, scene)
-    result = VesselMapResult(
-        sources=dict(sources),
-        scene=scene,
-        grid=vessel_map.grid,
-        anatomy=vessel_map.anatomy,
-        parts=tuple(vessel_map.parts),
-        meshes={name: MeshSummary.of(mesh) for name, mesh in vessel_map.meshes.items()},
-        needle=plan,
-        scores=scores,
-        not_scored=not_scored,
-        needle_truth=checked,
-        files=tuple(str(path.relative_to(out)) for path in written),
+    `progress`: True for a bar of its own over the `MAP_STEPS`, or a bar to advance by them
+    (`map_progress`: one bar, one rate and one time left for several maps).
+    """
+    if isinstance(progress, tqdm):
+        return _map_vessels(sweep, labels, scene, out, sources, job or VesselJob(), progress)
+    with map_progress(1, progress) as bar:
+        return _map_vessels(sweep, labels, scene, out, sources, job or VesselJob(), bar)
+
+
+def map_progress(maps: int, enabled: bool = True) -> tqdm:
+    """A bar over the steps of `maps` calls of `map_vessels`, with rate and time left."""
+    return tqdm(
+        total=maps * len(MAP_STEPS),
+        desc="vessel maps" if maps > 1 else "vessel map",
+        unit="step",
+        disable=not enabled,
     )
-    (out / "vessels.json").write_text(json.dumps(result.to_dict(), indent=2))
+
+
+@contextlib.contextmanager
+def _step(bar: tqdm, name: str) -> Iterator[None]:
+    """Name the running step on the bar, and tick when it is done."""
+    bar.set_postfix_str(name)
+    yield
+    bar.update()
+
+
+def _map_vessels(
+    sweep: Sweep,
+    labels: np.ndarray,
+    scene: SceneConfig,
+    out: Path,
+    sources: dict[str, str],
+    job: VesselJob,
+    bar: tqdm,
+) -> VesselMapResult:
+    """`map_vessels`, one tick of `bar` per step."""
+    out.mkdir(parents=True, exist_ok=True)
+    with _step(bar, MAP_STEPS[0]):
+        frame = AnatomicalFrame.from_scene(scene)
+        vessel_map = build_vessel_map(
+            sweep.frames, labels, sweep.probe_to_base, sweep.image_to_probe, frame, job.map
+        )
+        tracks = {
+            name: vessel_track(vessel_map.labels == label, vessel_map.grid, frame.proximal)
+            for name, label in VESSEL_CLASSES.items()
+        }
+    with _step(bar, MAP_STEPS[1]):
+        other = next(name for name in VESSEL_CLASSES if name != job.target)
+        skin = SkinModel.from_poses(sweep.probe_to_base)
+        plan = plan_needle(
+            tracks[job.target], job.target, vessel_map.meshes.get(other), skin,
+            vessel_map.covered, vessel_map.label_at, VESSEL_CLASSES[job.target], job.needle,
+        )  # fmt: skip
+    with _step(bar, MAP_STEPS[2]):
+        scored = _score(sweep, scene, vessel_map, tracks, plan, job)
+    with _step(bar, MAP_STEPS[3]):
+        written = _write_files(
+            out, vessel_map, plan, tracks[job.target], skin, scored.truth_meshes, scene
+        )
+        result = VesselMapResult(
+            sources=dict(sources),
+            scene=scene,
+            grid=vessel_map.grid,
+            anatomy=vessel_map.anatomy,
+            parts=tuple(vessel_map.parts),
+            meshes={name: MeshSummary.of(mesh) for name, mesh in vessel_map.meshes.items()},
+            needle=plan,
+            scores=scored.scores,
+            not_scored=scored.not_scored,
+            needle_truth=scored.needle_truth,
+            files=tuple(str(path.relative_to(out)) for path in written),
+        )
+        (out / "vessels.json").write_text(json.dumps(result.to_dict(), indent=2))
     return result
+
+
+@dataclass(frozen=True)
+class _Scored:
+    """The map against the phantom: per-class scores, the needle path on the true geometry,
+    the true surfaces in the map's box; or why a sweep was not scored."""
+
+    scores: dict[str, VesselScore] | None
+    not_scored: str
+    needle_truth: NeedleTruth | None
+    truth_meshes: dict[str, trimesh.Trimesh]
+
+
+def _score(
+    sweep: Sweep,
+    scene: SceneConfig,
+    vessel_map: VesselMap,
+    tracks: dict[str, VesselTrack],
+    plan: NeedlePlan,
+    job: VesselJob,
+) -> _Scored:
+    """Score a simulated sweep's map and needle path against its phantom."""
+    if sweep.source != "sim":
+        return _Scored(
+            None, f"not scored: the sweep's source is {sweep.source!r}, not 'sim'", None, {}
+        )
+    from resus.acquisition.simulation import simulated_truth
+    from sim.phantom import Phantom
+
+    truth = Phantom(simulated_truth(scene, sweep.provenance))
+    scores = score_map(vessel_map, truth, scene.phantom_to_base, tracks)
+    checked = None
+    if plan.safe:
+        checked = needle_truth(
+            plan.path(job.needle.path_step),
+            VESSEL_CLASSES[job.target],
+            truth,
+            invert_pose(scene.phantom_to_base),
+        )
+    return _Scored(scores, "", checked, _truth_in_box(truth, scene.phantom_to_base, vessel_map))
 
 
 def _write_files(

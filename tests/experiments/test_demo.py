@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+import statistics
 from pathlib import Path
 
 import pytest
@@ -20,7 +21,10 @@ from resus.sweep.io import read_sweep
 
 pytestmark = pytest.mark.slow  # the demo and experiments run whole pipelines
 
-SMALLEST = ("--subjects", "0,1", "--image-size", "48", "--sweep-length", "0.012", "--epochs", "1")
+SMALLEST = (
+    *("--subjects", "0,1", "--image-size", "48", "--sweep-length", "0.012"),
+    *("--epochs", "1", "--seeds", "2", "--seed", "4"),
+)
 
 
 @pytest.fixture(scope="module")
@@ -43,9 +47,11 @@ def test_every_file_the_summary_lists_exists_and_is_valid(demo) -> None:
     for name in [*files["pictures"], *files["curves"], *files["vessel_pictures"]]:
         picture = imread(out / name)
         assert picture.ndim == 3 and min(picture.shape[:2]) > 100, name
+    assert len(files["checkpoints"]) == 4  # two regimes, two seeds
     for name in files["checkpoints"]:
         _, config = load_checkpoint(out / name)
         assert config["model"]["image_size"] == 64
+        assert name == f"models/{config['regime']}/seed{config['seed']}/checkpoint.pt"
     for name in files["meshes"]:
         mesh = trimesh.load(out / name, force="mesh")
         assert len(mesh.faces) > 100, name
@@ -71,13 +77,38 @@ def test_recording_holds_the_scan_volume_maps_and_curves(demo) -> None:
     assert recording.blueprints
 
 
+def test_every_iou_is_over_the_seeds_and_the_regimes_are_compared_seed_by_seed(demo) -> None:
+    out, stdout = demo
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["seeds"] == [4, 5]
+    per_seed = {}
+    for regime, iou in summary["iou"].items():
+        assert iou["n_seeds"] == 2 and len(summary["best_epoch"][regime]) == 2
+        per_seed[regime] = [run["mean"] for run in iou["runs"]]
+        assert iou["mean"] == pytest.approx(statistics.mean(per_seed[regime]))
+        assert iou["mean_std"] == pytest.approx(statistics.stdev(per_seed[regime]))
+    (mean,) = [c for c in summary["comparisons"] if c["metric"] == "mean"]
+    assert (mean["a"], mean["b"], mean["n"]) == ("resus", "us", 2)
+    difference = statistics.mean(per_seed["resus"]) - statistics.mean(per_seed["us"])
+    spread = max(statistics.stdev(values) for values in per_seed.values())
+    assert mean["difference"] == pytest.approx(difference)
+    assert mean["seed_spread"] == pytest.approx(spread)
+    better = "resus better" if difference > 0 else "us better"
+    assert mean["verdict"] == ("no difference" if abs(difference) <= spread else better)
+    assert mean["verdict"] in stdout
+
+
 def test_report_numbers_come_from_summary_json(demo) -> None:
     out, _ = demo
     summary = json.loads((out / "summary.json").read_text())
     report = (out / "report.md").read_text()
     for iou in summary["iou"].values():
-        for value in (iou["artery"], iou["vein"], iou["mean"]):
-            assert number(value) in report
+        for metric in ("artery", "vein", "mean"):
+            assert f"{number(iou[metric])} ± {number(iou[f'{metric}_std'])}" in report
+        assert ", ".join(number(run["mean"]) for run in iou["runs"]) in report
+    for comparison in summary["comparisons"]:
+        assert number(comparison["seed_spread"]) in report
+        assert f"**{comparison['verdict']}**" in report
     for result in summary["vessels"].values():
         for score in result["scores"].values():
             assert number(score["dice"]) in report
@@ -100,6 +131,7 @@ def test_demo_refuses_bad_settings_in_one_line(tmp_path: Path) -> None:
         (("--subjects", "3"), "--subjects"),
         (("--subjects", "0,x"), "--subjects"),
         (("--epochs", "0"), "--epochs"),
+        (("--seeds", "1"), "--seeds"),
     ):
         done = resus("demo", "--out", tmp_path / "o", *args, timeout=60)
         assert done.returncode == 2 and fragment in done.stderr, done.stderr

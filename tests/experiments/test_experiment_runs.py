@@ -3,6 +3,7 @@
 import dataclasses
 import json
 import re
+import statistics
 import subprocess
 import sys
 
@@ -69,15 +70,26 @@ def test_subjects_report_table_equals_results_json(subjects_run):
     table = report.split("| held-out subject | us | resus |")[1].split("\n\n")[0].splitlines()
     subjects = saved["loso"]["subjects"]
     assert subjects == ["default/0", "default/1", "default/2"]
+    assert saved["seeds"] == [3, 4]
     for subject in subjects:
         row = next(line for line in table if line.startswith(f"| {subject} |"))
-        expected = [round(regimes[r]["iou"][subject]["mean"], 3) for r in ("us", "resus")]
+        expected = []
+        for regime in ("us", "resus"):
+            cell = regimes[regime]["iou"][subject]
+            seeds = [run["mean"] for run in cell["runs"]]
+            assert cell["mean_std"] == pytest.approx(statistics.stdev(seeds))
+            expected += [round(cell["mean"], 3), round(cell["mean_std"], 3)]
         assert numbers(row) == expected
     average = next(line for line in table if line.startswith("| **average**"))
     assert numbers(average) == [
-        round(regimes[r]["mean_over_subjects"]["mean"], 3) for r in ("us", "resus")
+        round(regimes[r]["mean_over_subjects"][key], 3)
+        for r in ("us", "resus")
+        for key in ("mean", "mean_std")
     ]
     assert "| p vs resus |" in report and "imagenet: not run" in report
+    (mean,) = [c for c in saved["loso"]["comparisons"] if c["metric"] == "mean"]
+    assert mean["n"] == 6  # 3 held-out subjects x 2 seeds, paired
+    assert f"| verdict vs resus | {mean['verdict']} |" in report
     assert "subjects_differ_enough" in saved["generalisation"]
     for name in ("predictions.png", "curves_us.png", "curves_resus.png"):
         assert (options.out / name).stat().st_size > 1000
@@ -110,8 +122,12 @@ def test_phantom_report_table_equals_results_json(tmp_path):
         for test in ("frames", "frames + reslices"):
             runs = [run.mean for run in row[test].runs]
             assert len(runs) == 2 and row[test].mean == pytest.approx(sum(runs) / 2)
+            assert row[test].mean_std == pytest.approx(statistics.stdev(runs))
             expected += [round(row[test].mean, 3), round(row[test].mean_std, 3)]
         assert numbers(line) == expected
+    for comparison in saved["comparisons"]["frames"]:
+        assert (comparison["a"], comparison["b"]) == ("frames + reslices", "frames")
+        assert f"**{comparison['verdict']}**" in report
     assert saved["scans"]["B"]["reslices"] > 0
     assert (options.out / "predictions.png").is_file()
 
@@ -123,6 +139,8 @@ def test_phantom_report_table_equals_results_json(tmp_path):
         (["subjects", "--subjects", "1"], "--subjects: leave-one-subject-out needs at least 2"),
         (["subjects", "--subjects", "a-b"], "--subjects: expected e.g. 3, 0-7 or 0,2,5"),
         (["subjects", "--regimes", "us,magic"], "--regimes: expected a comma list"),
+        (["phantom", "--executor", "spark"], "--executor: unknown executor 'spark'"),
+        (["phantom", "--seeds", "1"], "--seeds: ExperimentPreset.repeats must be at least 2"),
     ],
 )
 def test_cli_bad_input_is_one_line(tmp_path, arguments, message):
