@@ -33,6 +33,11 @@ class Robot(ABC):
     def tcp_wrench(self) -> np.ndarray:
         """Force (N) and torque (Nm) the TCP exerts on the environment, base frame (6,)."""
 
+    def probe_force(self) -> float:
+        """The contact force along the probe axis (TCP z, into the tissue), in N: what force
+        mode holds and what deforms the tissue in simulation."""
+        return float(self.tcp_wrench()[:3] @ self.tcp_pose()[:3, 2])
+
     @abstractmethod
     def time(self) -> float:
         """The robot's clock (s): the timestamps poses are recorded against."""

@@ -51,11 +51,13 @@ def simulate_sweep(
     preset: ScannerPreset | None = None,
     progress: bool = True,
     listeners: Sequence[FrameSink] = (),
+    rigid: bool = False,
 ) -> ScanResult:
     """Scan the scene's phantom with the simulated UR3e along `trajectory` (or a pattern made
     over the phantom) and write a labelled Sweep to `out`; `listeners` (the scanner's) get
     every frame as it is recorded, e.g. an OpenIGTLink server streaming the scan live.
-    `preset` images with that scanner preset's probe and settings (not with `probe`)."""
+    `preset` images with that scanner preset's probe and settings (not with `probe`). A
+    phantom with mechanics deforms under the measured contact force unless `rigid`."""
     if probe is not None and preset is not None:
         raise ValueError("simulate_sweep takes a probe config or a scanner preset, not both")
     spec = phantom_spec(scene, seed)
@@ -64,6 +66,8 @@ def simulate_sweep(
         trajectory = trajectory.trajectory(phantom, scene.phantom_to_base)
     robot = SimulatedRobot(scene)
     probe_config = probe or SimulatedProbeConfig(frame_rate=trajectory.frame_rate)
+    if rigid:
+        probe_config = dataclasses.replace(probe_config, rigid=True)
     if preset is not None:
         probe_config = dataclasses.replace(
             probe_config, probe=preset.probe(), settings=preset.settings()
@@ -79,6 +83,7 @@ def simulate_sweep(
         "scanner": None if preset is None else preset.name,
         "dynamic_range_db": probe_config.settings.dynamic_range_db,
         "pattern": trajectory.pattern,
+        "deformation": spec.mechanics is not None and not probe_config.rigid,
     }
     return scanner.run(
         trajectory, out, source="sim", subject=subject_id(scene), provenance=provenance

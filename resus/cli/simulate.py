@@ -50,6 +50,7 @@ def _simulate_one(job: dict) -> tuple[str, int]:
         preset=preset,
         progress=job["progress"],
         listeners=job.get("listeners", ()),
+        rigid=job.get("rigid", False),
     )
     return str(result.path), result.frames
 
@@ -93,6 +94,12 @@ def simulate(
             "(one per sweep); default: the simulator's own settings."
         ),
     ] = None,
+    rigid: Annotated[
+        bool,
+        typer.Option(
+            help="Image the rigid world: no tissue deformation under the probe, no pulsation."
+        ),
+    ] = False,
     preview: Annotated[Path | None, typer.Option(help="Also save a contact sheet PNG.")] = None,
     jobs: Annotated[
         int, typer.Option(min=1, help="Worker processes for --subjects, or a local Ray's CPUs.")
@@ -129,6 +136,7 @@ def simulate(
         "trajectory": plan,
         "seed": seed,
         "scanner": scanner,
+        "rigid": rigid,
     }
     if igtl is not None and subjects is not None:
         raise ResusError("--igtl streams one sweep: not with --subjects")
@@ -209,7 +217,7 @@ def _sweep_record(job: dict, path: Path) -> UnitRecord:
             return {"path": setting, "text": Path(setting).read_text()}
         return setting
 
-    names = ("scene", "phantom", "trajectory", "subject", "seed", "scanner")
+    names = ("scene", "phantom", "trajectory", "subject", "seed", "scanner", "rigid")
     return UnitRecord(path, {name: value(job[name]) for name in names}, (job["out"],))
 
 

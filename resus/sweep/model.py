@@ -221,7 +221,8 @@ class Sweep:
     """When the scan was recorded, ISO 8601."""
     provenance: Mapping[str, object] = field(default_factory=dict)
     """What made it (JSON values): for a simulated sweep `phantom`, `subject`, `seed`,
-    `scanner` and its `dynamic_range_db`; empty when unknown."""
+    `scanner` and its `dynamic_range_db`, the `pattern`, and `deformation` (whether the
+    tissue deformed under the probe); empty when unknown."""
 
     def __post_init__(self) -> None:
         frames = check_uint8(self.frames, "frames", 3)
@@ -266,6 +267,14 @@ class Sweep:
     def pixel_spacing(self) -> tuple[float, float]:
         """(column, row) pixel size in metres."""
         return pixel_spacing(self.image_to_probe)
+
+    @property
+    def axial_force(self) -> np.ndarray | None:
+        """(N,) force (N) the probe pressed along its own axis (into the tissue) in each
+        frame, from the wrench; None for a sweep without one."""
+        if self.wrench is None:
+            return None
+        return np.einsum("ni,ni->n", self.wrench[:, :3], self.probe_to_base[:, :3, 2])
 
     def frame(self, index: int) -> SweepFrame:
         """Frame `index` with its pose, time and optional data."""

@@ -3,8 +3,9 @@
 A spec gives the body, tissue layers (outermost first; the last one, without a thickness,
 fills the rest), blood/wall/bone materials, and either `anatomy` (parameters of
 `FemoralAnatomy`, from which the femoral vessels and an optional femur are built) or explicit
-`vessels` and `bones` lists (name, label, control_points, radii, wall_thickness). `variation`
-holds the subject generator's ranges. Every problem is reported as one ValueError naming the file.
+`vessels` and `bones` lists (name, label, control_points, radii, wall_thickness). `mechanics`
+(optional) makes the tissue deform under the probe (`TissueMechanics`). `variation` holds the
+subject generator's ranges. Every problem is reported as one ValueError naming the file.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import yaml
 
 from sim.assets import assets_dir
 from sim.phantom.anatomy import FemoralAnatomy, build_bones, build_nodes, build_vessels
+from sim.phantom.mechanics import TissueMechanics
 from sim.phantom.spec import (
     DEFAULT_TEXTURE_SCALE,
     BodySpec,
@@ -31,9 +33,10 @@ from sim.phantom.spec import (
 SCALE_KEYS = ("layer_thickness_scale", "echogenicity_scale", "noise_level")
 """Variation keys that are not anatomy parameters."""
 ANATOMY_KEYS = tuple(f.name for f in dataclasses.fields(FemoralAnatomy))
+MECHANICS_KEYS = TissueMechanics.keys()
 TOP_KEYS = {
     "name", "description", "side", "seed", "noise_level", "body", "layers", "blood", "wall",
-    "bone", "node", "anatomy", "vessels", "bones", "variation", "texture_scale",
+    "bone", "node", "anatomy", "vessels", "bones", "variation", "texture_scale", "mechanics",
 }  # fmt: skip
 MATERIAL_KEYS = ("name", "echogenicity", "attenuation_db_cm_mhz", "impedance_mrayl")
 TEXTURE_KEYS = ("texture_variation", "texture_ridges")
@@ -114,7 +117,7 @@ def _variation(value: Any) -> Variation:
     fields = _mapping(value or {}, "variation", ("ranges", "min_gap", "max_attempts"))
     ranges = {}
     for key, bounds in _mapping(
-        fields.get("ranges", {}), "variation.ranges", (*ANATOMY_KEYS, *SCALE_KEYS)
+        fields.get("ranges", {}), "variation.ranges", (*ANATOMY_KEYS, *MECHANICS_KEYS, *SCALE_KEYS)
     ).items():
         if not (isinstance(bounds, list) and len(bounds) == 2 and bounds[0] <= bounds[1]):
             raise ValueError(f"variation.ranges.{key} must be [low, high] with low <= high")
@@ -129,6 +132,14 @@ def _texture_scale(value: Any) -> tuple[float, float, float]:
     if not (isinstance(value, list) and len(value) == 3):
         raise ValueError("texture_scale must be [sx, sy, sz] in metres")
     return float(value[0]), float(value[1]), float(value[2])
+
+
+def _mechanics(value: Any) -> TissueMechanics | None:
+    """`mechanics: {NAME: value, ...}` (`TissueMechanics` fields, defaults for the rest)."""
+    if value is None:
+        return None
+    fields = _mapping(value, "mechanics", MECHANICS_KEYS)
+    return TissueMechanics(**{key: float(number) for key, number in fields.items()})
 
 
 def spec_from_mapping(data: Any) -> PhantomSpec:
@@ -171,6 +182,7 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         seed=int(data.get("seed", 0)),
         variation=_variation(data.get("variation")),
         anatomy=anatomy,
+        mechanics=_mechanics(data.get("mechanics")),
     )
 
 

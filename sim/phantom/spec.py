@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sim.labels import ARTERY, VEIN
+from sim.phantom.mechanics import TissueMechanics
 
 if TYPE_CHECKING:
     from sim.phantom.anatomy import FemoralAnatomy
@@ -144,8 +145,8 @@ class VesselSpec:
 class Variation:
     """How subjects differ: uniform ranges `[low, high]` per varied quantity.
 
-    Keys are `FemoralAnatomy` field names, plus `layer_thickness_scale` and
-    `echogenicity_scale` (independent factor per layer) and `noise_level`. `min_gap` is the
+    Keys are `FemoralAnatomy` and `TissueMechanics` field names, plus `layer_thickness_scale`
+    and `echogenicity_scale` (independent factor per layer) and `noise_level`. `min_gap` is the
     smallest allowed gap between artery and vein walls (and between vessels and bone).
     """
 
@@ -179,6 +180,8 @@ class PhantomSpec:
     variation: Variation = field(default_factory=Variation)
     anatomy: FemoralAnatomy | None = None
     """The parameters the vessels were built from; `make_subject` varies them."""
+    mechanics: TissueMechanics | None = None
+    """How the tissue deforms under the probe and pulses with the heart; None: rigid."""
 
     def __post_init__(self) -> None:
         if self.side not in SIDES:

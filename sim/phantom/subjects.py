@@ -4,7 +4,8 @@ Subject k draws every quantity in `spec.variation.ranges` uniformly, from a gene
 by `(spec.seed, k)`, rebuilds the vessels, and keeps the draw only if the vessels fit: artery
 and vein walls at least `min_gap` apart, vessels clear of the bone, and covered by at least
 `min_gap` of tissue inside the body. Otherwise it draws again (same generator), so subject k
-is always the same phantom. Lymph nodes closer than `min_gap` to a vessel are left out.
+is always the same phantom. Lymph nodes closer than `min_gap` to a vessel are left out. The
+tissue mechanics' ranges are drawn from a generator of their own.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 
 from sim.phantom.anatomy import build_bones, build_nodes, build_vessels
 from sim.phantom.centreline import SegmentChain, TubeSamples, sample_tube
+from sim.phantom.mechanics import TissueMechanics
 from sim.phantom.spec import ARTERY, VEIN, BodySpec, PhantomSpec, VesselSpec
 from sim.phantom.tube_kernels import brute_force_distance, pack_segments
 
@@ -86,6 +88,24 @@ def vessels_fit(
     return _clearance(sampled, [_SampledVessel.of(other) for other in others]) >= gap
 
 
+MECHANICS_STREAM = 1
+"""Mixed into the seed of the generator that draws a subject's mechanics, so that drawing
+them never shifts the anatomy's draws (adding mechanics kept every subject's anatomy)."""
+
+
+def _subject_mechanics(spec: PhantomSpec, subject: int) -> TissueMechanics:
+    """The subject's tissue mechanics: the spec's, with each varied parameter drawn."""
+    assert spec.mechanics is not None
+    rng = np.random.default_rng([spec.seed, subject, MECHANICS_STREAM])
+    mechanics_names = TissueMechanics.keys()
+    draws = {
+        key: float(rng.uniform(low, high))
+        for key, (low, high) in sorted(spec.variation.ranges.items())
+        if key in mechanics_names
+    }
+    return dataclasses.replace(spec.mechanics, **draws)
+
+
 def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
     """Subject `subject` (>= 0) of a nominal spec, deterministic in (spec.seed, subject)."""
     if spec.anatomy is None:
@@ -95,7 +115,8 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
     if subject < 0:
         raise ValueError(f"subject must be >= 0, got {subject}")
     variation = spec.variation
-    ranges = dict(sorted(variation.ranges.items()))
+    mechanics_names = set(TissueMechanics.keys())
+    ranges = dict(sorted(i for i in variation.ranges.items() if i[0] not in mechanics_names))
     rng = np.random.default_rng([spec.seed, subject])
     anatomy_names = {f.name for f in dataclasses.fields(spec.anatomy)}
     for _ in range(variation.max_attempts):
@@ -132,9 +153,11 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
         )
         for layer, t, e in zip(spec.layers, thickness_scale, echo_scale, strict=True)
     )
+    mechanics = None if spec.mechanics is None else _subject_mechanics(spec, subject)
     return dataclasses.replace(
         spec,
         name=f"{spec.name}/subject-{subject}",
+        mechanics=mechanics,
         layers=layers,
         vessels=vessels,
         bones=bones,

@@ -29,6 +29,8 @@ import numpy as np
 
 from sim.ultrasound.scatterers import (
     FIELD_COMPONENT_VARIANCE,
+    VALUE_SAFE_FASTMATH,
+    accumulate_coordinates,
     accumulate_line,
     mix32,
     unit_pair,
@@ -54,7 +56,7 @@ _EXPONENT_BIAS = np.int32(127)
 _MANTISSA_BITS = np.int32(23)
 
 
-@numba.njit(fastmath=True, cache=True)
+@numba.njit(fastmath=VALUE_SAFE_FASTMATH, cache=True)
 def fast_log2(values: np.ndarray) -> np.ndarray:
     """log2 of positive normal float32 values from their exponent bits and a cubic in the
     mantissa: vectorises, unlike the libm call (no SVML here)."""
@@ -86,7 +88,7 @@ def grid_points(
                 out[n, axis] = origin[axis] + col * col_step[axis] + row * row_step[axis]
 
 
-@numba.njit(fastmath=True, cache=True)
+@numba.njit(fastmath=VALUE_SAFE_FASTMATH, cache=True)
 def lateral_clutter(
     material: np.ndarray,
     echogenicity: np.ndarray,
@@ -116,11 +118,13 @@ def lateral_clutter(
             out[col * rows + row] = scale * (cumulative[high, row] - cumulative[low, row])
 
 
-@numba.njit(parallel=True, fastmath=True, cache=True)
+@numba.njit(parallel=True, fastmath=VALUE_SAFE_FASTMATH, cache=True)
 def scan_lines(
     origin: np.ndarray,
     col_step: np.ndarray,
     row_step: np.ndarray,
+    deformed: bool,
+    points: np.ndarray,
     elevation_dir: np.ndarray,
     elevation_offsets: np.ndarray,
     elevation_weights: np.ndarray,
@@ -151,7 +155,10 @@ def scan_lines(
     """IQ echo signal of every scan line into `out_real`, `out_imag` (cols, rows).
 
     `origin`, `col_step`, `row_step`: phantom-frame position of pixel (0, 0) and the steps to
-    the next column and row; the beam runs along `row_step`. Material tables (`echogenicity`,
+    the next column and row; the beam runs along `row_step`. When `deformed`, the tissue seen
+    at each pixel is at `points` (column-major, the undeformed points the tissue moved from)
+    rather than on that lattice, and the scatterer and texture fields are read there, so the
+    speckle moves with the tissue. Material tables (`echogenicity`,
     `round_trip_step` = amplitude factor of attenuation over one row there and back,
     `impedance`) have the vessel-wall material appended after the phantom's materials.
     `clutter` (pixels, column-major): scatter power added before attenuation, when `has_clutter`.
@@ -174,7 +181,25 @@ def scan_lines(
         reflect_im = np.zeros(rows, dtype=np.float32)
         texture_re = np.zeros(rows, dtype=np.float32)
         texture_im = np.zeros(rows, dtype=np.float32)
-        if contact[col] and has_texture:
+        if deformed:  # the column's tissue points, one contiguous array per axis
+            tissue = np.empty((3, rows))
+            for row in range(rows):
+                for axis in range(3):
+                    tissue[axis, row] = points[col * rows + row, axis]
+            lattice = np.empty((3, rows), dtype=np.float32)
+        if contact[col] and has_texture and deformed:
+            for axis in range(3):
+                lattice[axis] = texture_inverse_scale[axis] * tissue[axis]
+            accumulate_coordinates(
+                lattice[0],
+                lattice[1],
+                lattice[2],
+                _TEXTURE_NORMALISER,
+                texture_seed,
+                texture_re,
+                texture_im,
+            )
+        elif contact[col] and has_texture:
             for axis in range(3):
                 start[axis] = texture_inverse_scale[axis] * (origin[axis] + col * col_step[axis])
             accumulate_line(
@@ -229,6 +254,21 @@ def scan_lines(
                 previous = m
             for e in range(elevation_offsets.shape[0]):
                 offset = elevation_offsets[e]
+                if deformed:
+                    for axis in range(3):
+                        lattice[axis] = inverse_spacing * (
+                            tissue[axis] + offset * elevation_dir[axis]
+                        )
+                    accumulate_coordinates(
+                        lattice[0],
+                        lattice[1],
+                        lattice[2],
+                        elevation_weights[e],
+                        seed,
+                        reflect_re,
+                        reflect_im,
+                    )
+                    continue
                 for axis in range(3):
                     start[axis] = inverse_spacing * (
                         origin[axis] + col * col_step[axis] + offset * elevation_dir[axis]
@@ -253,7 +293,7 @@ def scan_lines(
                 line_im[row] += kr * reflect_im[source] + ki * reflect_re[source]
 
 
-@numba.njit(parallel=True, fastmath=True, cache=True)
+@numba.njit(parallel=True, fastmath=VALUE_SAFE_FASTMATH, cache=True)
 def form_image(
     echo_real: np.ndarray,
     echo_imag: np.ndarray,
@@ -312,7 +352,7 @@ def form_image(
             label_image[col, row] = label[first + row] if visible else 0
 
 
-@numba.njit(parallel=True, fastmath=True, cache=True)
+@numba.njit(parallel=True, fastmath=VALUE_SAFE_FASTMATH, cache=True)
 def smooth_lines(
     lines: np.ndarray,
     material: np.ndarray,

@@ -8,6 +8,12 @@ electronic noise from a hash of the pose, so a pose always gives the same frame.
 
 Labels describe what the image shows: the phantom's label at each pixel centre, and 0 where
 the image is black because the column has no skin contact or the pixel lies in air.
+
+A phantom with `mechanics` deforms under the probe when `render` is given the frame's
+`TissueLoad` (contact force and time): the pixel centres are mapped back to the undeformed
+tissue they show (`sim.ultrasound.deformation`) before the phantom and the scatterers are
+read, so labels stay exact; without a load, or for a rigid phantom, every image is the rigid
+world's, bit for bit as before.
 """
 
 from __future__ import annotations
@@ -21,6 +27,12 @@ import numpy as np
 from sim.phantom import Phantom, TissueSample
 from sim.transforms import is_rigid
 from sim.ultrasound.beam import axial_pulse, elevation_profile, lateral_beam
+from sim.ultrasound.deformation import (
+    FrameDeformation,
+    ProbeDeformation,
+    TissueLoad,
+    undeform_points,
+)
 from sim.ultrasound.echo import (
     form_image,
     grid_points,
@@ -152,6 +164,9 @@ class UltrasoundSimulator:
         self._label_lines = np.empty((probe.cols, probe.rows), dtype=np.uint8)
         self._image_to_probe = probe.image_to_probe()
         self._sample = TissueSample.empty(count)
+        self.deformation = None if spec.mechanics is None else ProbeDeformation(phantom, probe)
+        self.last_deformation: FrameDeformation | None = None
+        """The deformation of the last frame rendered deformed (None: rigid)."""
 
     def contact(self, probe_to_phantom: np.ndarray) -> np.ndarray:
         """(cols,) bool: whether each column's transducer element touches the skin (gel gap
@@ -161,9 +176,12 @@ class UltrasoundSimulator:
             gap = elements[2] - self.phantom.skin_height(elements[0], elements[1])
             return gap <= self.settings.contact_tolerance
 
-    def render(self, probe_to_phantom: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def render(
+        self, probe_to_phantom: np.ndarray, load: TissueLoad | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """B-mode image and label image, each (rows, cols) uint8, for the probe at
-        `probe_to_phantom` (4x4, the TCP pose in the phantom frame, metres)."""
+        `probe_to_phantom` (4x4, the TCP pose in the phantom frame, metres), the tissue
+        deformed by `load` if the phantom has mechanics."""
         pose = np.asarray(probe_to_phantom, dtype=np.float64)
         if pose.shape != (4, 4) or not is_rigid(pose):
             raise ValueError(
@@ -176,6 +194,12 @@ class UltrasoundSimulator:
         col_step = np.ascontiguousarray(pixel_to_phantom[:3, 0])
         row_step = np.ascontiguousarray(pixel_to_phantom[:3, 1])
         grid_points(origin, col_step, row_step, probe.rows, self._points)
+        deformed = load is not None and self.deformation is not None
+        self.last_deformation = None
+        if load is not None and self.deformation is not None:
+            frame = self.last_deformation = self.deformation.frame(pose, load)
+            beam = np.ascontiguousarray(pose[:3, 2])
+            undeform_points(self._points, probe.rows, beam, frame.row_shift, frame.maps)
         sample = self.phantom.sample(self._points, out=self._sample)
         contact = self.contact(pose)
         if self._clutter_power > 0.0:
@@ -192,6 +216,8 @@ class UltrasoundSimulator:
             origin,
             col_step,
             row_step,
+            deformed,
+            self._points,
             np.ascontiguousarray(pose[:3, 1]),
             self._elevation_offsets,
             self._elevation_weights,

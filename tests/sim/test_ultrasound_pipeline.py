@@ -155,6 +155,8 @@ def render_layers(attenuation: np.ndarray, impedance: np.ndarray | None = None) 
         origin,
         col_step,
         row_step,
+        False,
+        np.zeros((count, 3)),
         np.array([0.0, -1.0, 0.0]),
         offsets,
         weights.astype(np.float32),

@@ -2,8 +2,9 @@
 
 The simulated probe renders at the robot's true TCP pose in the phantom frame at the moment
 it takes a frame, so a Sweep recorded through the scanner can be checked against the ground
-truth. It can also deliver frames late (`latency`) and stamp them on a clock offset from the
-robot's (`clock_offset`), as a real scanner's video does, to exercise temporal alignment.
+truth; a phantom with mechanics deforms under the contact force the robot measures then. It
+can also deliver frames late (`latency`) and stamp them on a clock offset from the robot's
+(`clock_offset`), as a real scanner's video does, to exercise temporal alignment.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from sim.robot.scene import load_scene_phantom
 from sim.robot.scene_config import SceneConfig
 from sim.robot.ur3e import CONTROL_PERIOD, ProtectiveStopError, SimulatedUR3e
 from sim.transforms import invert_pose
+from sim.ultrasound.deformation import TissueLoad
 from sim.ultrasound.probe import LinearProbe
 from sim.ultrasound.settings import UltrasoundSettings
 from sim.ultrasound.simulator import UltrasoundSimulator
@@ -99,6 +101,8 @@ class SimulatedProbeConfig:
     """How long after it is taken a frame is delivered (s)."""
     clock_offset: float = 0.0
     """Offset of the probe's clock from the robot's (s): timestamp = robot time + offset."""
+    rigid: bool = False
+    """Image the rigid world even if the phantom has mechanics (no deformation)."""
 
     def __post_init__(self) -> None:
         if not self.frame_rate > 0:
@@ -141,10 +145,19 @@ class SimulatedProbe(SyntheticProbe):
         """Take a frame if one is due at the robot's present time; deliver those now late enough."""
         now = self.robot.time()
         if now >= self._next_frame_time - 1e-9:
-            image, label = self.simulator.render(self._base_to_phantom @ self.robot.tcp_pose())
+            image, label = self.simulator.render(
+                self._base_to_phantom @ self.robot.tcp_pose(), self._load(now)
+            )
             frame = Frame(now + self.config.clock_offset, image, label)
             self._in_flight.append((now + self.config.latency, frame))
             self._next_frame_time = max(self._next_frame_time + 1 / self.config.frame_rate, now)
         delivered = [frame for due, frame in self._in_flight if due <= now + 1e-9]
         self._in_flight = [(due, frame) for due, frame in self._in_flight if due > now + 1e-9]
         return delivered
+
+    def _load(self, now: float) -> TissueLoad | None:
+        """What deforms the tissue in the frame taken now: the contact force the robot
+        measures along the probe axis (the force the Sweep records) at the robot's time."""
+        if self.config.rigid or self.simulator.deformation is None:
+            return None
+        return TissueLoad(self.robot.probe_force(), now)

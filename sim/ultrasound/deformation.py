@@ -1,0 +1,265 @@
+"""The tissue a pressing probe images: one frame's deformation, applied to its pixel points.
+
+The phantom stays rigid; a deformed frame is imaged by mapping each pixel centre back to the
+undeformed tissue point that moved there and querying the phantom (labels, materials,
+scatterers) at that point, so images and labels in the deformed world are exact samples of
+the deformed geometry. The map is the inverse of two forward deformations, applied in turn:
+
+1. **Each vessel's cross-section** (`sim.phantom.mechanics` gives the sizes). Near the image,
+   a vessel is taken as straight: the line through the centreline point nearest the image,
+   along its tangent. Across that line, a point at distance rho in direction theta of the
+   deformed cross-section came from the same direction; inside the deformed ellipse (semi-axes
+   `minor` along the beam, `major` across it, in units of the round radius r), from `r * nu`,
+   with nu the point's elliptical radius; outside, from distances stretched linearly so that
+   the map is the identity from `OUTER_RADII * r` on, and beyond the vessel's ends (where
+   the vessel it joins takes over). The vessel's label region is therefore exactly the
+   ellipse in any plane across the line, and the map is one to one and continuous there.
+2. **Bulk compression** under the face: the skin follows the face, indented by the probe's
+   penetration into the undeformed body, and the tissue below shifts along the beam by an
+   amount that decays with depth (`mechanics.undeformed_depths`).
+
+The load of a frame is the measured contact force along the probe axis (the Sweep's wrench)
+and the frame's time (the cardiac and respiratory phase), so the recorded sweep explains each
+frame's deformation.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from sim.phantom import Phantom
+from sim.phantom.mechanics import (
+    PASCAL_PER_MMHG,
+    TissueMechanics,
+    face_stress_fraction,
+    undeformed_depths,
+)
+from sim.phantom.spec import ARTERY
+from sim.ultrasound.probe import LinearProbe
+
+OUTER_RADII = 3.0
+"""Beyond this many round radii from a vessel's axis, its cross-section change moves nothing."""
+MAP_WIDTH = 18
+"""A cross-section map row: centre c (3), axis t (3), beam direction b (3), n = t x b (3),
+round radius, deformed semi-axes along b and along n, outer radius, and the stretch of the
+axis the vessel spans, from c (all metres)."""
+
+
+@dataclass(frozen=True)
+class TissueLoad:
+    """What deforms the tissue in one frame: the probe's contact force and the time."""
+
+    force: float
+    """Contact force along the probe axis (N); negative values count as no contact."""
+    time: float
+    """The frame's time (s): the cardiac and respiratory phase."""
+
+
+@dataclass(frozen=True)
+class VesselShape:
+    """One vessel's cross-section in one frame, as the deformation set it."""
+
+    name: str
+    centre: np.ndarray
+    """Undeformed centre (phantom frame, m) of the cross-section nearest the image."""
+    radius: float
+    """Round (undeformed, diastolic) radius there (m)."""
+    minor: float
+    """Semi-axis along the beam over the round radius."""
+    major: float
+    """Semi-axis across the beam over the round radius."""
+    stress_mmhg: float
+    """The probe's stress at the centre (mmHg)."""
+
+
+@dataclass(frozen=True)
+class FrameDeformation:
+    """The inverse map of one frame: a shift along the beam per image row, then the vessels'
+    cross-section maps."""
+
+    row_shift: np.ndarray
+    """(rows,) how far (m) along the beam, away from the face, the tissue seen in each row
+    moved: it lay that much nearer the face before the probe pressed."""
+    maps: np.ndarray
+    """(M, MAP_WIDTH) cross-section maps, applied in order."""
+    vessels: tuple[VesselShape, ...]
+    indentation: float
+    """Penetration of the face into the undeformed body (m)."""
+
+
+class ProbeDeformation:
+    """Per-frame deformations of `phantom` (whose spec has `mechanics`) under `probe`."""
+
+    def __init__(self, phantom: Phantom, probe: LinearProbe) -> None:
+        mechanics = phantom.spec.mechanics
+        if mechanics is None:
+            raise ValueError(f"phantom {phantom.spec.name!r} has no mechanics: it is rigid")
+        self.mechanics: TissueMechanics = mechanics
+        self.phantom = phantom
+        self.probe = probe
+        self._names = [vessel.name for vessel in phantom.spec.vessels]
+        self._arteries = [vessel.label == ARTERY for vessel in phantom.spec.vessels]
+        centrelines, radii = phantom.centrelines(), phantom.centreline_radii()
+        self._nodes = np.concatenate([centrelines[name] for name in self._names])
+        self._radii = np.concatenate([radii[name] for name in self._names])
+        ends = np.cumsum([0] + [len(centrelines[name]) for name in self._names])
+        self._slices = [slice(start, stop) for start, stop in itertools.pairwise(ends)]
+        self._depths = (np.arange(probe.rows) + 0.5) * probe.pixel_height
+        self._face_area = probe.width * probe.face_thickness
+
+    def indentation(self, probe_to_phantom: np.ndarray) -> float:
+        """Mean penetration (m) of the face's centre line into the undeformed body, measured
+        along the phantom's z (0 where a part of the face is not in contact)."""
+        element_x = np.linspace(-self.probe.width / 2, self.probe.width / 2, 9)
+        elements = probe_to_phantom[:3, 0:1] * element_x + probe_to_phantom[:3, 3:4]
+        skin = self.phantom.skin_height(elements[0], elements[1])
+        penetration = np.nan_to_num(skin - elements[2], nan=0.0)
+        return float(np.clip(penetration, 0.0, None).mean())
+
+    def frame(self, probe_to_phantom: np.ndarray, load: TissueLoad) -> FrameDeformation:
+        """The deformation of the frame taken at `probe_to_phantom` under `load`."""
+        indentation = self.indentation(probe_to_phantom)
+        undeformed = undeformed_depths(self._depths, indentation, self.mechanics.compression_length)
+        row_shift = self._depths - (undeformed - indentation)
+        rotation, origin = probe_to_phantom[:3, :3], probe_to_phantom[:3, 3]
+        beam = rotation[:, 2]
+        local = (self._nodes - origin) @ rotation  # probe frame: x lateral, y elevation, z depth
+        outside_x = np.clip(np.abs(local[:, 0]) - self.probe.width / 2, 0.0, None)
+        outside_z = np.clip(-local[:, 2], 0.0, None) + np.clip(
+            local[:, 2] - self.probe.depth, 0.0, None
+        )
+        distance = np.sqrt(local[:, 1] ** 2 + outside_x**2 + outside_z**2)
+        crossings = [
+            (index, crossing)
+            for index, part in enumerate(self._slices)
+            if (crossing := self._crossing(part, local, distance)) is not None
+        ]
+        if not crossings:
+            return FrameDeformation(row_shift, np.zeros((0, MAP_WIDTH)), (), indentation)
+        centres = np.array([c.centre for _, c in crossings])
+        x, y, z = ((centres - origin) @ rotation).T
+        pressure_mmhg = max(0.0, load.force) / self._face_area / PASCAL_PER_MMHG
+        stresses = pressure_mmhg * face_stress_fraction(
+            x, y, np.maximum(z, 1e-4), self.probe.width, self.probe.face_thickness
+        )
+        maps, shapes = [], []
+        for (index, crossing), stress in zip(crossings, stresses, strict=True):
+            if self._arteries[index]:
+                minor = major = self.mechanics.artery_scale(load.time)
+            else:
+                minor, major = self.mechanics.vein_semi_axes(float(stress), load.time)
+            axis, radius = crossing.axis, crossing.radius
+            across = beam - (beam @ axis) * axis
+            norm = math.sqrt(across @ across)
+            if norm < 1e-6:  # the vessel runs along the beam: nothing to flatten
+                continue
+            across = across / norm
+            other = np.array(
+                [
+                    axis[1] * across[2] - axis[2] * across[1],
+                    axis[2] * across[0] - axis[0] * across[2],
+                    axis[0] * across[1] - axis[1] * across[0],
+                ]
+            )
+            maps.append(
+                [
+                    *crossing.centre,
+                    *axis,
+                    *across,
+                    *other,
+                    radius,
+                    minor * radius,
+                    major * radius,
+                    OUTER_RADII * radius,
+                    *crossing.span,
+                ]
+            )
+            shapes.append(
+                VesselShape(
+                    self._names[index], crossing.centre, radius, minor, major, float(stress)
+                )
+            )
+        table = np.array(maps, dtype=np.float64).reshape(-1, MAP_WIDTH)
+        return FrameDeformation(row_shift, table, tuple(shapes), indentation)
+
+    def _crossing(self, part: slice, local: np.ndarray, distance: np.ndarray) -> _Crossing | None:
+        """Where the vessel whose nodes are `part` passes nearest the image, given every
+        node's probe-frame position and distance from the image; None when it stays farther
+        from the image than its outer radius."""
+        nodes, radii = self._nodes[part], self._radii[part]
+        local, distance = local[part], distance[part]
+        k = int(np.argmin(distance))
+        if distance[k] > OUTER_RADII * radii[k]:
+            return None
+        centre, radius = nodes[k], float(radii[k])
+        for j in (k - 1, k):  # refine to the plane crossing on either side of node k
+            if 0 <= j < len(nodes) - 1 and local[j, 1] * local[j + 1, 1] <= 0:
+                step = local[j, 1] - local[j + 1, 1]
+                f = 0.0 if step == 0 else local[j, 1] / step
+                centre = nodes[j] + f * (nodes[j + 1] - nodes[j])
+                radius = float(radii[j] + f * (radii[j + 1] - radii[j]))
+                break
+        tangent = nodes[min(k + 1, len(nodes) - 1)] - nodes[max(k - 1, 0)]
+        tangent = tangent / math.sqrt(tangent @ tangent)
+        ends = (nodes[[0, -1]] - centre) @ tangent
+        cap = float(radii.max())
+        span = (float(ends.min()) - cap, float(ends.max()) + cap)
+        return _Crossing(centre, tangent, radius, span)
+
+
+@dataclass(frozen=True)
+class _Crossing:
+    """Where a vessel passes nearest the image: its undeformed centre there, unit tangent and
+    radius, and the stretch of the axis (from the centre) that it and its end caps span."""
+
+    centre: np.ndarray
+    axis: np.ndarray
+    radius: float
+    span: tuple[float, float]
+
+
+@numba.njit(cache=True, parallel=True)
+def undeform_points(
+    points: np.ndarray, rows: int, beam: np.ndarray, row_shift: np.ndarray, maps: np.ndarray
+) -> None:
+    """Map deformed pixel centres (column-major, `rows` per column) in place to the
+    undeformed tissue points that moved there: undo the bulk shift along `beam`, then each
+    cross-section map in turn (see the module docstring)."""
+    for n in numba.prange(points.shape[0]):
+        shift = row_shift[n % rows]
+        qx = points[n, 0] - shift * beam[0]
+        qy = points[n, 1] - shift * beam[1]
+        qz = points[n, 2] - shift * beam[2]
+        for m in range(maps.shape[0]):
+            row = maps[m]
+            x, y, z = qx - row[0], qy - row[1], qz - row[2]
+            along = x * row[3] + y * row[4] + z * row[5]
+            outer = row[15]
+            if x * x + y * y + z * z - along * along >= outer * outer:
+                continue  # most points: far from this vessel's axis
+            if not row[16] <= along <= row[17]:
+                continue
+            px, py, pz = x - along * row[3], y - along * row[4], z - along * row[5]
+            xb = px * row[6] + py * row[7] + pz * row[8]
+            xn = px * row[9] + py * row[10] + pz * row[11]
+            rho = np.sqrt(xb * xb + xn * xn)
+            radius, semi_b, semi_n = row[12], row[13], row[14]
+            if rho <= 0.0:
+                continue
+            nu = np.sqrt((xb / semi_b) ** 2 + (xn / semi_n) ** 2)
+            if nu <= 1.0:
+                scale = radius * nu / rho
+            else:
+                edge = rho / nu
+                scale = (radius + (rho - edge) * (outer - radius) / (outer - edge)) / rho
+            qx += (scale - 1.0) * px
+            qy += (scale - 1.0) * py
+            qz += (scale - 1.0) * pz
+        points[n, 0] = qx
+        points[n, 1] = qy
+        points[n, 2] = qz

@@ -1,0 +1,298 @@
+"""Tissue that answers the probe: the mechanics' laws against independent computations, and
+deformed images and labels against the analytic deformed geometry."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate, optimize
+
+from sim.phantom import (
+    BodySpec,
+    Layer,
+    Material,
+    Phantom,
+    PhantomSpec,
+    VesselSpec,
+    load_phantom,
+    make_subject,
+)
+from sim.phantom.mechanics import (
+    PASCAL_PER_MMHG,
+    SYSTOLE_FRACTION,
+    TissueMechanics,
+    cardiac_waveform,
+    ellipse_perimeter,
+    face_stress_fraction,
+    perimeter_keeping_major,
+    undeformed_depths,
+)
+from sim.ultrasound.deformation import TissueLoad
+from sim.ultrasound.probe import LinearProbe
+from sim.ultrasound.simulator import UltrasoundSimulator
+from sim.ultrasound.skin_pose import probe_pose_on_skin
+
+GEL = Layer("gel", 0.5, 0.5, 1.55)
+BLOOD = Material("blood", 0.02, 0.18, 1.61)
+WALL = Material("wall", 1.0, 0.6, 1.7)
+VEIN_X, ARTERY_X, DEPTH = -0.008, 0.009, 0.016
+VEIN_RADIUS, ARTERY_RADIUS = 0.005, 0.0035
+MECHANICS = TissueMechanics(
+    venous_pressure_mmhg=10.0,
+    vein_collapse_pressure_mmhg=40.0,
+    heart_rate_bpm=75.0,
+    arterial_pulsation=0.08,
+    respiratory_swing_mmhg=0.0,
+    compression_length=0.02,
+)
+PROBE = LinearProbe(width=0.038, depth=0.04, cols=256, rows=256)
+
+
+def straight_vessels_spec(mechanics: TissueMechanics | None = MECHANICS) -> PhantomSpec:
+    """A gel block with a straight vein and a straight artery along y at one depth."""
+
+    def tube(name: str, label: int, x: float, radius: float) -> VesselSpec:
+        points = [[x, -0.07, -DEPTH], [x, 0.0, -DEPTH], [x, 0.07, -DEPTH]]
+        return VesselSpec(name, label, points, [radius] * 3, wall_thickness=0.0004)
+
+    vessels = (tube("vein", 2, VEIN_X, VEIN_RADIUS), tube("artery", 1, ARTERY_X, ARTERY_RADIUS))
+    body = BodySpec("block", (0.1, 0.16, 0.06))
+    return PhantomSpec(
+        "straight", "right", body, (GEL,), BLOOD, WALL, None, vessels, mechanics=mechanics
+    )
+
+
+@pytest.fixture(scope="module")
+def simulator() -> UltrasoundSimulator:
+    return UltrasoundSimulator(Phantom(straight_vessels_spec()), PROBE)
+
+
+def pixel_centres() -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols) lateral and depth coordinates of every pixel centre in the probe frame."""
+    points = PROBE.pixel_points()
+    return points[..., 0], points[..., 2]
+
+
+def pressed_pose(phantom: Phantom, indentation: float) -> np.ndarray:
+    pose = probe_pose_on_skin(phantom, 0.0, 0.0)
+    pose[:3, 3] += pose[:3, 2] * indentation
+    return pose
+
+
+# --- the laws ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("x, y, z", [(0.0, 0.0, 0.016), (0.006, 0.002, 0.01), (0.03, 0.0, 0.02)])
+def test_face_stress_is_boussinesq_integrated_over_the_face(x, y, z):
+    width, length = 0.038, 0.010
+
+    def point_load(v, u):  # Boussinesq: vertical stress of a point load at (u, v) per newton
+        r2 = (x - u) ** 2 + (y - v) ** 2 + z * z
+        return 3.0 * z**3 / (2.0 * math.pi * r2**2.5)
+
+    # unit pressure over the face: the stress is the point-load kernel integrated over it
+    expected, _ = integrate.dblquad(
+        point_load, -width / 2, width / 2, -length / 2, length / 2, epsabs=1e-12
+    )
+    assert float(face_stress_fraction(x, y, z, width, length)) == pytest.approx(expected, rel=1e-6)
+
+
+def test_face_stress_is_the_contact_pressure_just_under_the_face_and_none_beside_it():
+    assert float(face_stress_fraction(0.0, 0.0, 1e-6, 0.038, 0.01)) == pytest.approx(1.0, abs=1e-4)
+    assert float(face_stress_fraction(0.05, 0.0, 1e-6, 0.038, 0.01)) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_flattening_vein_keeps_its_perimeter():
+    for minor in (1.0, 0.7, 0.3, 0.08):
+        major = perimeter_keeping_major(minor)
+        exact, _ = integrate.quad(
+            lambda t, a=major, b=minor: math.hypot(a * math.sin(t), b * math.cos(t)), 0, 2 * math.pi
+        )
+        assert exact == pytest.approx(2 * math.pi, rel=1e-4)
+        assert ellipse_perimeter(major, minor) == pytest.approx(exact, rel=1e-4)
+
+
+def test_vein_law_round_below_venous_pressure_then_linear_then_collapsed():
+    venous, collapse = MECHANICS.venous_pressure_mmhg, MECHANICS.vein_collapse_pressure_mmhg
+    assert MECHANICS.vein_semi_axes(venous - 1.0, 0.0) == (1.0, pytest.approx(1.0))
+    minor, _ = MECHANICS.vein_semi_axes(venous + collapse / 4, 0.0)
+    assert minor == pytest.approx(0.75)
+    assert MECHANICS.vein_semi_axes(venous + 2 * collapse, 0.0)[0] == MECHANICS.collapsed_fraction
+
+
+def test_cardiac_waveform_rises_in_systole_and_runs_off_to_zero():
+    phases = np.linspace(0.0, 1.0, 2001)
+    wave = np.array([cardiac_waveform(p) for p in phases])
+    assert wave[0] == 0.0 and wave[-1] == pytest.approx(0.0, abs=1e-12)
+    assert wave.max() == pytest.approx(1.0) and phases[wave.argmax()] == pytest.approx(
+        SYSTOLE_FRACTION, abs=1e-3
+    )
+    assert np.abs(np.diff(wave)).max() < 0.01  # continuous, no jump at the cycle's end
+
+
+def test_undeformed_depths_invert_the_compression():
+    depths = np.linspace(0.0, 0.04, 50)
+    undeformed = undeformed_depths(depths, 0.004, 0.02)
+    forward = undeformed - 0.004 + 0.004 * np.exp(-undeformed / 0.02)
+    assert forward == pytest.approx(depths, abs=1e-12)
+    assert undeformed[0] == pytest.approx(0.0, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    "field, value, message",
+    [
+        ("venous_pressure_mmhg", 0.0, "mechanics.venous_pressure_mmhg must be positive"),
+        ("collapsed_fraction", 1.0, "mechanics.collapsed_fraction must be in"),
+        ("arterial_pulsation", 0.6, "mechanics.arterial_pulsation must be in"),
+        ("cardiac_phase", 1.0, "mechanics.cardiac_phase must be in"),
+    ],
+)
+def test_mechanics_refuse_bad_values_by_name(field, value, message):
+    with pytest.raises(ValueError, match=message):
+        dataclasses.replace(MECHANICS, **{field: value})
+
+
+def test_subjects_draw_mechanics_without_moving_their_anatomy():
+    spec = load_phantom("femoral")
+    rigid = dataclasses.replace(spec, mechanics=None)
+    for subject in (0, 3):
+        deformable, plain = make_subject(spec, subject), make_subject(rigid, subject)
+        assert deformable.vessels == plain.vessels and plain.mechanics is None
+        assert 5.0 <= deformable.mechanics.venous_pressure_mmhg <= 15.0
+        assert 60.0 <= deformable.mechanics.heart_rate_bpm <= 100.0
+    assert make_subject(spec, 0).mechanics != make_subject(spec, 1).mechanics
+
+
+# --- deformed images --------------------------------------------------------------------------
+
+
+def expected_vein_semi_axes(force: float, indentation: float) -> tuple[float, float]:
+    """The law at the vein's centre, computed here from the face and the vein's depth."""
+    stress = (
+        force
+        / (PROBE.width * PROBE.face_thickness)
+        / PASCAL_PER_MMHG
+        * float(face_stress_fraction(VEIN_X, 0.0, DEPTH - indentation, PROBE.width, 0.01))
+    )
+    return MECHANICS.vein_semi_axes(stress, 0.0)
+
+
+@pytest.mark.parametrize("force, indentation", [(2.0, 0.0), (6.0, 0.0), (9.0, 0.004)])
+def test_labels_are_the_deformed_geometry_evaluated_exactly(simulator, force, indentation):
+    pose = pressed_pose(simulator.phantom, indentation)
+    _, labels = simulator.render(pose, TissueLoad(force, 0.0))
+    lateral, depth = pixel_centres()
+
+    def undeformed_face_depth(z: float) -> float:  # the bulk law, solved independently
+        if indentation == 0:
+            return z
+        law = lambda d: d - indentation + indentation * math.exp(-d / 0.02) - z  # noqa: E731
+        return optimize.brentq(law, 0.0, 1.0, xtol=1e-14) - indentation
+
+    rows = np.array([undeformed_face_depth(z) for z in depth[:, 0]])
+    minor, major = expected_vein_semi_axes(force, indentation)
+    centre_depth = DEPTH - indentation
+    ellipse = ((rows[:, None] - centre_depth) / (minor * VEIN_RADIUS)) ** 2 + (
+        (lateral - VEIN_X) / (major * VEIN_RADIUS)
+    ) ** 2
+    clear = np.abs(ellipse - 1.0) > 1e-6
+    assert np.array_equal((labels == 2)[clear], (ellipse <= 1.0)[clear])
+    assert (labels == 2).sum() > 100
+
+
+def test_vein_minor_axis_against_force_follows_the_law(simulator):
+    lateral, _ = pixel_centres()
+    column = int(np.argmin(np.abs(lateral[0] - VEIN_X)))
+    pixel = PROBE.pixel_height
+    for force in np.linspace(0.0, 14.0, 8):
+        _, labels = simulator.render(pressed_pose(simulator.phantom, 0.0), TissueLoad(force, 0.0))
+        measured = (labels[:, column] == 2).sum() * pixel / 2
+        minor, _ = expected_vein_semi_axes(force, 0.0)
+        if minor >= 0.3:
+            assert measured == pytest.approx(minor * VEIN_RADIUS, rel=0.05)
+        else:  # collapsed to a slit: within a pixel of the law
+            assert abs(measured - minor * VEIN_RADIUS) <= pixel
+    assert minor == MECHANICS.collapsed_fraction  # the last force collapses the vein
+
+
+def test_artery_pulses_at_the_heart_rate_by_the_set_amount_only(simulator):
+    times = np.arange(120) / 30.0
+    pose = pressed_pose(simulator.phantom, 0.0)
+    areas = np.array(
+        [(simulator.render(pose, TissueLoad(8.0, t))[1] == 1).sum() for t in times], dtype=float
+    )
+    scale = np.sqrt(areas / areas.min())
+    expected = np.array([MECHANICS.artery_scale(t) for t in times])
+    assert scale == pytest.approx(expected / expected.min(), abs=0.005)
+    spectrum = np.abs(np.fft.rfft(areas - areas.mean()))
+    peak = np.fft.rfftfreq(len(times), 1 / 30.0)[spectrum.argmax()]
+    assert peak == pytest.approx(MECHANICS.heart_rate_bpm / 60.0, abs=0.25)
+
+
+def test_without_a_load_or_mechanics_every_image_is_the_rigid_worlds(simulator):
+    rigid = UltrasoundSimulator(Phantom(straight_vessels_spec(None)), PROBE)
+    for indentation in (0.0, 0.003):
+        pose = pressed_pose(simulator.phantom, indentation)
+        image, labels = simulator.render(pose)
+        rigid_image, rigid_labels = rigid.render(pose, TissueLoad(6.0, 0.5))
+        assert np.array_equal(image, rigid_image) and np.array_equal(labels, rigid_labels)
+        assert simulator.last_deformation is None and rigid.deformation is None
+
+
+def test_an_unloaded_deformable_phantom_images_as_the_rigid_one(simulator):
+    """No force, no indentation, no pulsation: the deformed path (speckle read at each pixel's
+    own tissue point) sees what the rigid one does, up to float32 rounding of the lattice."""
+    still = dataclasses.replace(MECHANICS, arterial_pulsation=0.0)
+    unloaded = UltrasoundSimulator(Phantom(straight_vessels_spec(still)), PROBE)
+    pose = pressed_pose(unloaded.phantom, 0.0)
+    image, labels = unloaded.render(pose, TissueLoad(0.0, 0.0))
+    rigid_image, rigid_labels = unloaded.render(pose)
+    assert np.array_equal(labels, rigid_labels)
+    difference = np.abs(image.astype(int) - rigid_image)
+    assert difference.max() <= 2 and difference.mean() < 0.05
+
+
+def test_speckle_moves_with_the_compressed_tissue(simulator):
+    """Pressed by 3 mm, a deep patch of the image is the rigid image of the tissue that moved
+    there: the same speckle, found where the bulk law puts it."""
+    pose = pressed_pose(simulator.phantom, 0.003)
+    image, _ = simulator.render(pose, TissueLoad(0.0, 0.0))
+    rigid, _ = simulator.render(pose)
+    image_rows = slice(200, 240)
+    patch = image[image_rows, 20:60].astype(float)
+    shifts = range(0, 12)
+    scores = [
+        np.corrcoef(patch.ravel(), rigid[200 - k : 240 - k, 20:60].astype(float).ravel())[0, 1]
+        for k in shifts
+    ]
+    expected = 0.003 * math.exp(-(0.035 + 0.003) / 0.02) / PROBE.pixel_height
+    assert int(np.argmax(scores)) == pytest.approx(expected, abs=1.0)
+    best, runner_up = sorted(scores)[-1], sorted(scores)[-2]
+    assert best > 0.7 and runner_up < 0.4  # sub-pixel shifts decorrelate a little
+
+
+# --- a simulated sweep ------------------------------------------------------------------------
+
+
+def test_a_pressing_sweep_flattens_the_vein_and_rigid_turns_it_off(tmp_path, monkeypatch, capsys):
+    """`resus simulate` on the femoral phantom at 9 N deforms the tissue under the measured
+    force (provenance says so); `--rigid` gives the rigid world's frames of the same path."""
+    from resus.sweep.io import read_sweep
+    from tests.cli_runner import run_main
+
+    common = ["--phantom", "femoral", "--subject", "0", "--length", "0.006", "--force", "9"]
+    sweeps = {}
+    for name, extra in (("deformed", []), ("rigid", ["--rigid"])):
+        out = tmp_path / f"{name}.h5"
+        status, _, err = run_main(monkeypatch, capsys, "simulate", "--out", out, *common, *extra)
+        assert status == 0, err
+        sweeps[name] = read_sweep(out)
+    deformed, rigid = sweeps["deformed"], sweeps["rigid"]
+    assert deformed.provenance["deformation"] is True
+    assert rigid.provenance["deformation"] is False
+    force = np.einsum("ni,ni->n", deformed.wrench[:, :3], deformed.probe_to_base[:, :3, 2])
+    assert np.median(force) == pytest.approx(9.0, abs=0.5)  # the force that deformed them
+    vein = [(s.labels == 2).sum(axis=(1, 2)).mean() for s in (deformed, rigid)]
+    assert vein[0] < 0.8 * vein[1]  # flattened by the press
+    assert not np.array_equal(deformed.frames, rigid.frames)
