@@ -35,7 +35,7 @@ demo() {
     rm -rf docs/demo
     mkdir -p docs/demo
     # the report and what it shows inline; meshes, volumes, sweeps and checkpoints stay out
-    (cd "$cache/demo" && cp --parents report.md summary.json ./*.png models/*/*/curves.png \
+    (cd "$cache/demo" && cp --parents report.md summary.json timings.json ./*.png models/*/*/curves.png \
         vessels/resus/vessel_map.png vessels/resus/needle.png "$OLDPWD/docs/demo/")
 }
 

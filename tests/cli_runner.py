@@ -8,6 +8,7 @@ depending on where the script was installed.
 
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import sys
@@ -17,10 +18,14 @@ import pytest
 from resus.cli.app import main
 
 
-def resus(*args: object, timeout: float = 300) -> subprocess.CompletedProcess:
-    """Run `resus ARGS...` and return its exit code, stdout and stderr."""
+def resus(
+    *args: object, timeout: float = 300, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess:
+    """Run `resus ARGS...` (with `env` added to the environment) and return its exit code,
+    stdout and stderr."""
     command = [sys.executable, "-m", "resus", *map(str, args)]
-    return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+    environment = None if env is None else {**os.environ, **env}
+    return subprocess.run(command, capture_output=True, text=True, timeout=timeout, env=environment)
 
 
 def run_main(monkeypatch, capsys, *args: object) -> tuple[int, str, str]:

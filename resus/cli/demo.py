@@ -45,7 +45,9 @@ def register(app: typer.Typer) -> None:
         summary = result.summary
         files = summary["files"]
         resus_map = summary["vessels"]["resus"]["scores"]
-        typer.echo(f"\ndemo finished in {summary['total_seconds']:.0f} s; everything is in {out}/")
+        typer.echo(
+            f"\ndemo finished in {result.timings['total_seconds']:.0f} s; everything is in {out}/"
+        )
         for regime, iou in summary["iou"].items():
             typer.echo(
                 f"  held-out mean IoU, {regime}: {iou['mean']:.3f} ± {iou['mean_std']:.3f} "

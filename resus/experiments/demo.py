@@ -97,6 +97,8 @@ class DemoResult:
     report: Path
     recording: Path
     summary: dict
+    timings: dict
+    """Wall time per stage (timings.json), kept apart so summary.json is reproducible."""
 
 
 class _Stopwatch:
@@ -110,6 +112,10 @@ class _Stopwatch:
         now = time.perf_counter()
         self.seconds[stage] = round(now - self._last, 1)
         self._last = now
+
+    def timings(self) -> dict:
+        """timings.json's content: `seconds` per stage and `total_seconds`."""
+        return {"seconds": self.seconds, "total_seconds": round(sum(self.seconds.values()), 1)}
 
 
 def run_demo(
@@ -139,11 +145,13 @@ def run_demo(
     pictures = _pictures(folder, test, predictions)
     recording = _record(folder / "demo.rrd", test, predictions, runs["resus"][0])
     clock.lap("pictures and rerun recording")
-    summary = _summary(folder, settings, data, runs, vessels, pictures, clock.seconds)
+    summary = _summary(folder, settings, data, runs, vessels, pictures)
     (folder / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    timings = clock.timings()
+    (folder / "timings.json").write_text(json.dumps(timings, indent=2) + "\n")
     report = folder / "report.md"
-    report.write_text(render_report(summary))
-    return DemoResult(folder, report, recording, summary)
+    report.write_text(render_report(summary, timings))
+    return DemoResult(folder, report, recording, summary, timings)
 
 
 @dataclass(frozen=True)
@@ -214,7 +222,7 @@ def _map_vessels(
     from resus.vessels.pipeline import map_progress, map_vessels
 
     labels = {"ground_truth": test.labels, **predictions}
-    sweep_name = str(test.files.sweep)
+    sweep_name = str(test.files.sweep.relative_to(folder.parent))
     with map_progress(len(LABEL_SOURCES), progress) as bar:
         return {
             source: map_vessels(
@@ -306,12 +314,12 @@ def _summary(
     runs: dict[str, list[RegimeRun]],
     vessels: dict[str, VesselMapResult],
     pictures: list[str],
-    seconds: dict[str, float],
 ) -> dict:
     """Everything the report shows, as written to summary.json (paths relative to `folder`):
     `seeds`, `iou[regime]` cells and `comparisons` (resus against us, one per IoU metric) as
     `resus.experiments.results` documents them, `best_epoch[regime]` per seed, `mapped_seed`
-    (whose models segmented, mapped and made the pictures), `vessels`, `files`, `seconds`."""
+    (whose models segmented, mapped and made the pictures), `vessels`, `files`. No wall times
+    (those are in timings.json): the same settings give the same summary.json on any run."""
     test = data[-1]
     seeds = settings.training_seeds()
     iou = {
@@ -370,8 +378,6 @@ def _summary(
             "sweeps": [str(d.sweep.relative_to(folder)) for d in data],
             "recording": "demo.rrd",
         },
-        "seconds": seconds,
-        "total_seconds": round(sum(seconds.values()), 1),
     }
 
 

@@ -27,15 +27,16 @@ def number(value: float | None, digits: int = 3) -> str:
     return "n/a" if value is None else f"{value:.{digits}f}"
 
 
-def render_report(summary: dict) -> str:
-    """Markdown report of one demo run."""
+def render_report(summary: dict, timings: dict) -> str:
+    """Markdown report of one demo run (`timings`: timings.json's wall times)."""
     lines = [
         "# RESUS demo report",
         "",
-        "Every number here is read from `summary.json` beside this file; pictures, meshes,",
-        "volumes and the rerun recording are in the same folder.",
+        "Every number here is read from `summary.json` beside this file (wall times from",
+        "`timings.json`); pictures, meshes, volumes and the rerun recording are in the same",
+        "folder.",
         "",
-        *_run_section(summary),
+        *_run_section(summary, timings),
         *_segmentation_section(summary),
         *_vessel_section(summary),
         *_needle_section(summary),
@@ -50,11 +51,11 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
     return [*lines, ""]
 
 
-def _run_section(summary: dict) -> list[str]:
+def _run_section(summary: dict, timings: dict) -> list[str]:
     settings = summary["settings"]
     frames = summary["frames"]
-    stages = [[stage, number(seconds, 1)] for stage, seconds in summary["seconds"].items()]
-    stages.append(["**total**", f"**{number(summary['total_seconds'], 1)}**"])
+    stages = [[stage, number(seconds, 1)] for stage, seconds in timings["seconds"].items()]
+    stages.append(["**total**", f"**{number(timings['total_seconds'], 1)}**"])
     return [
         "## What ran",
         "",

@@ -27,12 +27,35 @@ SMALLEST = (
 )
 
 
-@pytest.fixture(scope="module")
-def demo(tmp_path_factory) -> tuple[Path, str]:
-    out = tmp_path_factory.mktemp("demo") / "out"
-    done = resus("demo", "--out", out, *SMALLEST, timeout=600)
+REPRODUCIBLE = {"SOURCE_DATE_EPOCH": "1764547200"}
+"""Files stamped with this time instead of now, so two runs can be compared byte for byte."""
+
+
+def run_demo(folder: Path) -> tuple[Path, str]:
+    out = folder / "out"
+    done = resus("demo", "--out", out, *SMALLEST, timeout=600, env=REPRODUCIBLE)
     assert done.returncode == 0, done.stdout + done.stderr
     return out, done.stdout
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory) -> tuple[Path, str]:
+    return run_demo(tmp_path_factory.mktemp("demo"))
+
+
+def test_a_second_run_elsewhere_gives_byte_identical_data_and_summary(demo, tmp_path) -> None:
+    first, _ = demo
+    second, _ = run_demo(tmp_path)
+    files = sorted(p.relative_to(first) for p in (first / "data").rglob("*") if p.is_file())
+    assert files == sorted(
+        p.relative_to(second) for p in (second / "data").rglob("*") if p.is_file()
+    )
+    assert len(files) >= 8
+    for name in files:
+        assert (first / name).read_bytes() == (second / name).read_bytes(), name
+    assert (first / "summary.json").read_text() == (second / "summary.json").read_text()
+    timings = json.loads((second / "timings.json").read_text())
+    assert timings["total_seconds"] == pytest.approx(sum(timings["seconds"].values()), abs=0.3)
 
 
 def test_demo_prints_where_everything_is(demo) -> None:
@@ -113,7 +136,8 @@ def test_report_numbers_come_from_summary_json(demo) -> None:
         for score in result["scores"].values():
             assert number(score["dice"]) in report
             assert number(score["mean_surface_distance_mm"]) in report
-    assert number(summary["total_seconds"], 1) in report
+    timings = json.loads((out / "timings.json").read_text())
+    assert number(timings["total_seconds"], 1) in report
     for target in re.findall(r"\]\(([^)]+)\)", report):
         assert (out / target).is_file(), target
 
