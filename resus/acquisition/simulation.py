@@ -83,6 +83,7 @@ def simulate_sweep(
         "scanner": None if preset is None else preset.name,
         "dynamic_range_db": probe_config.settings.dynamic_range_db,
         "pattern": trajectory.pattern,
+        "contact_force": trajectory.contact_force,
         "deformation": spec.mechanics is not None and not probe_config.rigid,
     }
     return scanner.run(

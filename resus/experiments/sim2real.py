@@ -75,6 +75,9 @@ class Sim2RealSettings:
     sonographer's probe does not centre the vessels in the image."""
     sweep_tilt_deg: float = 10.0
     """Each subject's probe is tilted by up to this much (degrees) either way along the sweep."""
+    contact_forces: tuple[float, float] = (2.0, 9.0)
+    """Each subject's sweep holds a contact force drawn in this range (N): sonographers press
+    differently, and the deformable phantom's veins go from round to visibly flattened."""
     regime: str = "aug"
     """Training regime of the simulation-only model and of every fine-tuning."""
     export_framing_p: float = 0.5
@@ -124,6 +127,12 @@ class Sim2RealSettings:
             raise ResusError(
                 f"{where}.sweep_offset must be >= 0 and sweep_tilt_deg in [0, 45), got "
                 f"{self.sweep_offset}, {self.sweep_tilt_deg}"
+            )
+        low, high = self.contact_forces
+        if not 0 < low <= high < 20:
+            raise ResusError(
+                f"{where}.contact_forces must be (low, high) with 0 < low <= high < 20 N (the "
+                f"scanner's force limit), got {self.contact_forces}"
             )
         if not 0 <= self.export_framing_p <= 1:
             raise ResusError(
@@ -383,7 +392,8 @@ def few_label_curve(
 
 def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dict:
     """What a sweep of the experiment must have been made from to be reused: the phantom,
-    subject, seed, scanner, and the subject's sweep pattern (where and how it was scanned)."""
+    subject, seed, scanner, the subject's sweep pattern and force (where and how it was
+    scanned), and whether its tissue deformed."""
     from resus.acquisition.simulation import phantom_spec, resolve_scene
     from sim.phantom import Phantom
     from sim.ultrasound.scanner import sweep_preset
@@ -398,6 +408,8 @@ def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dic
         "seed": spec.seed,
         "scanner": None if preset is None else preset.name,
         "pattern": json.loads(json.dumps(path.pattern)),
+        "contact_force": path.contact_force,
+        "deformation": spec.mechanics is not None,
     }
 
 
@@ -429,13 +441,17 @@ def simulate_subjects(
 
 
 def subject_sweep(settings: Sim2RealSettings, subject: int, seed: int) -> LinearPattern:
-    """The nominal sweep moved sideways by up to `sweep_offset` and tilted by up to
-    `sweep_tilt_deg`, drawn from (seed, subject): every subject is scanned its own way."""
+    """The nominal sweep moved sideways by up to `sweep_offset`, tilted by up to
+    `sweep_tilt_deg` and pressed with a force in `contact_forces`, drawn from (seed, subject):
+    every subject is scanned its own way."""
     rng = np.random.default_rng([seed, subject, 0x5EE9])
     offset = rng.uniform(-settings.sweep_offset, settings.sweep_offset)
     tilt = rng.uniform(-settings.sweep_tilt_deg, settings.sweep_tilt_deg)
+    force = rng.uniform(*settings.contact_forces)
     x, y = settings.sweep.start
-    return dataclasses.replace(settings.sweep, start=(x + offset, y), tilt_deg=tilt)
+    return dataclasses.replace(
+        settings.sweep, start=(x + offset, y), tilt_deg=tilt, contact_force=float(force)
+    )
 
 
 def _simulate_sweep(job: tuple[Path, Sim2RealSettings, int, int]) -> None:

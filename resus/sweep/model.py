@@ -221,8 +221,8 @@ class Sweep:
     """When the scan was recorded, ISO 8601."""
     provenance: Mapping[str, object] = field(default_factory=dict)
     """What made it (JSON values): for a simulated sweep `phantom`, `subject`, `seed`,
-    `scanner` and its `dynamic_range_db`, the `pattern`, and `deformation` (whether the
-    tissue deformed under the probe); empty when unknown."""
+    `scanner` and its `dynamic_range_db`, the `pattern` and `contact_force`, and
+    `deformation` (whether the tissue deformed under the probe); empty when unknown."""
 
     def __post_init__(self) -> None:
         frames = check_uint8(self.frames, "frames", 3)

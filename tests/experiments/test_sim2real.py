@@ -108,6 +108,7 @@ def test_too_few_real_images_is_one_error_naming_the_settings():
         ({"export_framing_p": 1.5}, r"export_framing_p must be in \[0, 1\], got 1.5"),
         ({"sweep_tilt_deg": 50.0}, r"sweep_offset must be >= 0 and sweep_tilt_deg in \[0, 45\)"),
         ({"training_cpus": 0}, "training_cpus must be at least 1"),
+        ({"contact_forces": (5.0, 2.0)}, r"contact_forces must be \(low, high\)"),
     ],
 )
 def test_settings_refuse_what_cannot_run(changes, message):
@@ -267,6 +268,9 @@ def test_each_subject_is_scanned_its_own_way_within_the_settings_bounds():
     sweeps = [subject_sweep(TINY, k, 3) for k in range(40)]
     offsets = np.array([s.start[0] - TINY.sweep.start[0] for s in sweeps])
     tilts = np.array([s.tilt_deg for s in sweeps])
+    forces = np.array([s.contact_force for s in sweeps])
+    low, high = TINY.contact_forces
+    assert forces.min() >= low and forces.max() <= high and forces.std() > (high - low) / 5
     assert np.abs(offsets).max() <= TINY.sweep_offset and np.abs(tilts).max() <= TINY.sweep_tilt_deg
     assert offsets.std() > TINY.sweep_offset / 3 and tilts.std() > TINY.sweep_tilt_deg / 3
     assert all(s.start[1] == TINY.sweep.start[1] and s.length == TINY.sweep.length for s in sweeps)
@@ -280,6 +284,8 @@ def test_a_sweep_is_reused_only_from_the_same_phantom_subject_seed_and_scanner()
     assert sweep_provenance(TINY, 1, 3) == made
     assert sweep_provenance(TINY, 2, 3) != made and sweep_provenance(TINY, 1, 4) != made
     assert made["pattern"]["tilt_deg"] == subject_sweep(TINY, 1, 3).tilt_deg  # where it scanned
+    assert made["contact_force"] == subject_sweep(TINY, 1, 3).contact_force  # how hard
+    assert made["deformation"] is True
     moved = dataclasses.replace(TINY, sweep_offset=0.0)
     assert sweep_provenance(moved, 1, 3)["pattern"] != made["pattern"]
 
