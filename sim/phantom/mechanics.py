@@ -16,7 +16,8 @@ Four small laws, each a textbook model with its parameters in `TissueMechanics`:
   rise over the first 15 % of the cycle, then an exponential run-off (`cardiac_waveform`).
 - **Bulk compression.** The skin follows the indented face, and the tissue under it is
   compressed along the beam: a point at undeformed depth D moves by `indentation * exp(-D /
-  compression_length)` (`undeformed_depths` inverts that map).
+  compression_length)` (`tissue_shift`; `undeformed_depths` inverts that map). A vessel
+  moves with the tissue at its centre and keeps the shape its own law gives it.
 """
 
 from __future__ import annotations
@@ -172,6 +173,18 @@ def face_stress_fraction(
         for sy in (-1.0, 1.0)
     ]
     return np.sum(corners, axis=0)
+
+
+def tissue_shift(
+    undeformed_depth: np.ndarray | float, indentation: float, length: float
+) -> np.ndarray:
+    """How far (m) the tissue at `undeformed_depth` below the skin moved along the beam from
+    where it lay before the face sank `indentation` in: all of it at the skin, decaying over
+    `length` (an indentation beyond `MAX_COMPRESSION_STRAIN * length` moves the tissue
+    rigidly by the excess). It then lies `depth - indentation + shift` below the face."""
+    compressed = min(max(indentation, 0.0), MAX_COMPRESSION_STRAIN * length)
+    depth = np.asarray(undeformed_depth, dtype=np.float64)
+    return (max(indentation, 0.0) - compressed) + compressed * np.exp(-depth / length)
 
 
 def undeformed_depths(depths: np.ndarray, indentation: float, length: float) -> np.ndarray:

@@ -11,12 +11,16 @@ the deformed geometry. The map is the inverse of two forward deformations, appli
    deformed cross-section came from the same direction; inside the deformed ellipse (semi-axes
    `minor` along the beam, `major` across it, in units of the round radius r), from `r * nu`,
    with nu the point's elliptical radius; outside, from distances stretched linearly so that
-   the map is the identity from `OUTER_RADII * r` on, and beyond the vessel's ends (where
-   the vessel it joins takes over). The vessel's label region is therefore exactly the
+   the map is the identity from `OUTER_RADII * r` on (or short of a neighbouring vessel, so
+   one vessel's change never bends another), and beyond the vessel's ends (where the vessel
+   it joins takes over). The vessel's label region is therefore exactly the
    ellipse in any plane across the line, and the map is one to one and continuous there.
 2. **Bulk compression** under the face: the skin follows the face, indented by the probe's
    penetration into the undeformed body, and the tissue below shifts along the beam by an
-   amount that decays with depth (`mechanics.undeformed_depths`).
+   amount that decays with depth (`mechanics.undeformed_depths`). A vessel is not squashed
+   by it: the cross-section moves rigidly with the tissue at its centre (the shift blends
+   into the bulk one over the same outer ring), so its shape is its own law's alone (arteries
+   stay round, a vein's minor axis is what its law says).
 
 The load of a frame is the measured contact force along the probe axis (the Sweep's wrench)
 and the frame's time (the cardiac and respiratory phase), so the recorded sweep explains each
@@ -37,6 +41,7 @@ from sim.phantom.mechanics import (
     PASCAL_PER_MMHG,
     TissueMechanics,
     face_stress_fraction,
+    tissue_shift,
     undeformed_depths,
 )
 from sim.phantom.spec import ARTERY
@@ -44,10 +49,18 @@ from sim.ultrasound.probe import LinearProbe
 
 OUTER_RADII = 3.0
 """Beyond this many round radii from a vessel's axis, its cross-section change moves nothing."""
-MAP_WIDTH = 18
+NEIGHBOUR_REACH = 1.1
+"""A neighbouring vessel is given this many of its radii (its pulse's room) when a vessel's
+ring is fitted between them."""
+RING_MARGIN = 3.0e-4
+"""Tissue left between a vessel's ring and a neighbour (m)."""
+RING_ROOM = 1.15
+"""A ring's outer radius is at least this many times the vessel's largest semi-axis."""
+MAP_WIDTH = 19
 """A cross-section map row: centre c (3), axis t (3), beam direction b (3), n = t x b (3),
-round radius, deformed semi-axes along b and along n, outer radius, and the stretch of the
-axis the vessel spans, from c (all metres)."""
+round radius, deformed semi-axes along b and along n, outer radius, the stretch of the axis
+the vessel spans, from c, and how far the bulk compression moved the centre along the beam
+(all metres)."""
 
 
 @dataclass(frozen=True)
@@ -143,17 +156,25 @@ class ProbeDeformation:
             return FrameDeformation(row_shift, np.zeros((0, MAP_WIDTH)), (), indentation)
         centres = np.array([c.centre for _, c in crossings])
         x, y, z = ((centres - origin) @ rotation).T
+        centre_shifts = tissue_shift(
+            z + indentation, indentation, self.mechanics.compression_length
+        )
         pressure_mmhg = max(0.0, load.force) / self._face_area / PASCAL_PER_MMHG
         stresses = pressure_mmhg * face_stress_fraction(
             x, y, np.maximum(z, 1e-4), self.probe.width, self.probe.face_thickness
         )
+        in_image = np.abs(y) <= np.array([c.radius for _, c in crossings])
         maps, shapes = [], []
-        for (index, crossing), stress in zip(crossings, stresses, strict=True):
+        for m, ((index, crossing), stress, centre_shift) in enumerate(
+            zip(crossings, stresses, centre_shifts, strict=True)
+        ):
             if self._arteries[index]:
                 minor = major = self.mechanics.artery_scale(load.time)
             else:
                 minor, major = self.mechanics.vein_semi_axes(float(stress), load.time)
             axis, radius = crossing.axis, crossing.radius
+            neighbours = [c for k, (_, c) in enumerate(crossings) if k != m and in_image[k]]
+            outer, major = _fitted_ring(crossing, neighbours, minor, major)
             across = beam - (beam @ axis) * axis
             norm = math.sqrt(across @ across)
             if norm < 1e-6:  # the vessel runs along the beam: nothing to flatten
@@ -175,8 +196,9 @@ class ProbeDeformation:
                     radius,
                     minor * radius,
                     major * radius,
-                    OUTER_RADII * radius,
+                    outer,
                     *crossing.span,
+                    centre_shift,
                 ]
             )
             shapes.append(
@@ -212,6 +234,28 @@ class ProbeDeformation:
         return _Crossing(centre, tangent, radius, span)
 
 
+def _fitted_ring(
+    crossing: _Crossing, neighbours: list[_Crossing], minor: float, major: float
+) -> tuple[float, float]:
+    """The outer radius of a vessel's cross-section map, and its major semi-axis (over its
+    radius): the ring reaches `OUTER_RADII` radii, but stops `RING_MARGIN` short of every
+    neighbour crossing the image (taken at `NEIGHBOUR_REACH` of its radius, room for its
+    pulse), so that one vessel's change never bends another (vessels that overlap, a
+    junction's, are one lumen and no neighbours); a vein hemmed in that tightly widens only
+    as far as its ring leaves room for."""
+    radius, outer = crossing.radius, OUTER_RADII * crossing.radius
+    for other in neighbours:
+        offset = other.centre - crossing.centre
+        across = offset - (offset @ crossing.axis) * crossing.axis
+        distance = math.sqrt(across @ across)
+        if distance < radius + other.radius:  # overlapping: one lumen (a junction), not a neighbour
+            continue
+        outer = min(outer, distance - NEIGHBOUR_REACH * other.radius - RING_MARGIN)
+    room = outer / (RING_ROOM * radius)
+    major = max(minor, min(major, room))
+    return max(outer, RING_ROOM * radius * max(minor, major, 1.0)), major
+
+
 @dataclass(frozen=True)
 class _Crossing:
     """Where a vessel passes nearest the image: its undeformed centre there, unit tangent and
@@ -228,13 +272,25 @@ def undeform_points(
     points: np.ndarray, rows: int, beam: np.ndarray, row_shift: np.ndarray, maps: np.ndarray
 ) -> None:
     """Map deformed pixel centres (column-major, `rows` per column) in place to the
-    undeformed tissue points that moved there: undo the bulk shift along `beam`, then each
-    cross-section map in turn (see the module docstring)."""
+    undeformed tissue points that moved there: undo the bulk shift along `beam` (inside a
+    vessel, its centre's shift), then each cross-section map in turn (see the module
+    docstring)."""
     for n in numba.prange(points.shape[0]):
+        px, py, pz = points[n, 0], points[n, 1], points[n, 2]
         shift = row_shift[n % rows]
-        qx = points[n, 0] - shift * beam[0]
-        qy = points[n, 1] - shift * beam[1]
-        qz = points[n, 2] - shift * beam[2]
+        for m in range(maps.shape[0]):  # a vessel moves rigidly with the tissue at its centre
+            row = maps[m]
+            centre_shift = row[18]
+            weight = _cross_section_weight(
+                px - row[0] - centre_shift * beam[0],
+                py - row[1] - centre_shift * beam[1],
+                pz - row[2] - centre_shift * beam[2],
+                row,
+            )
+            shift += weight * (centre_shift - shift)
+        qx = px - shift * beam[0]
+        qy = py - shift * beam[1]
+        qz = pz - shift * beam[2]
         for m in range(maps.shape[0]):
             row = maps[m]
             x, y, z = qx - row[0], qy - row[1], qz - row[2]
@@ -244,9 +300,9 @@ def undeform_points(
                 continue  # most points: far from this vessel's axis
             if not row[16] <= along <= row[17]:
                 continue
-            px, py, pz = x - along * row[3], y - along * row[4], z - along * row[5]
-            xb = px * row[6] + py * row[7] + pz * row[8]
-            xn = px * row[9] + py * row[10] + pz * row[11]
+            ax, ay, az = x - along * row[3], y - along * row[4], z - along * row[5]
+            xb = ax * row[6] + ay * row[7] + az * row[8]
+            xn = ax * row[9] + ay * row[10] + az * row[11]
             rho = np.sqrt(xb * xb + xn * xn)
             radius, semi_b, semi_n = row[12], row[13], row[14]
             if rho <= 0.0:
@@ -257,9 +313,30 @@ def undeform_points(
             else:
                 edge = rho / nu
                 scale = (radius + (rho - edge) * (outer - radius) / (outer - edge)) / rho
-            qx += (scale - 1.0) * px
-            qy += (scale - 1.0) * py
-            qz += (scale - 1.0) * pz
+            qx += (scale - 1.0) * ax
+            qy += (scale - 1.0) * ay
+            qz += (scale - 1.0) * az
         points[n, 0] = qx
         points[n, 1] = qy
         points[n, 2] = qz
+
+
+@numba.njit(cache=True, inline="always")
+def _cross_section_weight(x: float, y: float, z: float, row: np.ndarray) -> float:
+    """1 inside the deformed cross-section of map `row` (offset x, y, z from its centre),
+    falling linearly to 0 at its outer radius, 0 beyond it or its vessel's ends."""
+    along = x * row[3] + y * row[4] + z * row[5]
+    outer = row[15]
+    if x * x + y * y + z * z - along * along >= outer * outer:
+        return 0.0
+    if not row[16] <= along <= row[17]:
+        return 0.0
+    ax, ay, az = x - along * row[3], y - along * row[4], z - along * row[5]
+    xb = ax * row[6] + ay * row[7] + az * row[8]
+    xn = ax * row[9] + ay * row[10] + az * row[11]
+    rho = np.sqrt(xb * xb + xn * xn)
+    nu = np.sqrt((xb / row[13]) ** 2 + (xn / row[14]) ** 2)
+    if nu <= 1.0:
+        return 1.0
+    edge = rho / nu
+    return (outer - rho) / (outer - edge)

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from scipy import integrate, optimize
+from scipy import integrate
 
 from sim.phantom import (
     BodySpec,
@@ -180,25 +180,35 @@ def expected_vein_semi_axes(force: float, indentation: float) -> tuple[float, fl
 
 @pytest.mark.parametrize("force, indentation", [(2.0, 0.0), (6.0, 0.0), (9.0, 0.004)])
 def test_labels_are_the_deformed_geometry_evaluated_exactly(simulator, force, indentation):
+    """Every vein label of a pressed frame is the law's ellipse, moved with the tissue at its
+    centre: down by indentation * exp(-depth / compression_length) from where the rigid face
+    would see it (computed here from the law's formula)."""
     pose = pressed_pose(simulator.phantom, indentation)
     _, labels = simulator.render(pose, TissueLoad(force, 0.0))
     lateral, depth = pixel_centres()
-
-    def undeformed_face_depth(z: float) -> float:  # the bulk law, solved independently
-        if indentation == 0:
-            return z
-        law = lambda d: d - indentation + indentation * math.exp(-d / 0.02) - z  # noqa: E731
-        return optimize.brentq(law, 0.0, 1.0, xtol=1e-14) - indentation
-
-    rows = np.array([undeformed_face_depth(z) for z in depth[:, 0]])
     minor, major = expected_vein_semi_axes(force, indentation)
-    centre_depth = DEPTH - indentation
-    ellipse = ((rows[:, None] - centre_depth) / (minor * VEIN_RADIUS)) ** 2 + (
+    centre_depth = DEPTH - indentation + indentation * math.exp(-DEPTH / 0.02)
+    ellipse = ((depth - centre_depth) / (minor * VEIN_RADIUS)) ** 2 + (
         (lateral - VEIN_X) / (major * VEIN_RADIUS)
     ) ** 2
     clear = np.abs(ellipse - 1.0) > 1e-6
     assert np.array_equal((labels == 2)[clear], (ellipse <= 1.0)[clear])
     assert (labels == 2).sum() > 100
+
+
+def test_pressed_arteries_stay_round(simulator):
+    """Bulk compression moves the artery but does not squash it: its label is a circle of
+    the pulsed radius, wherever the press put it."""
+    pose = pressed_pose(simulator.phantom, 0.006)
+    _, labels = simulator.render(pose, TissueLoad(10.0, 0.0))
+    lateral, depth = pixel_centres()
+    artery = labels == 1
+    radius = ARTERY_RADIUS * MECHANICS.artery_scale(0.0)
+    centre = depth[artery].mean()
+    distance = np.hypot(depth - centre, lateral - ARTERY_X)
+    clear = np.abs(distance - radius) > PROBE.pixel_height
+    assert np.array_equal(artery[clear], (distance <= radius)[clear])
+    assert centre == pytest.approx(DEPTH - 0.006 + 0.006 * math.exp(-DEPTH / 0.02), abs=2e-5)
 
 
 def test_vein_minor_axis_against_force_follows_the_law(simulator):
