@@ -8,8 +8,9 @@ before every command, whatever the backend.
 - `robot`, `probe`: the abstract `Robot` and `Probe`; `backends/` holds the implementations,
   built from their config dataclasses by `factory.make_robot` / `make_probe`.
 - `scanner`: the control loop that records a Sweep; `safety`: its limits.
-- `trajectory`: a planned path (`resus.trajectory/1` YAML); `patterns`: paths made from a few
-  parameters (linear, fan, multipass, raster).
+- `trajectory`: a planned path (`resus.trajectory/1` YAML), with stops and a force profile
+  where it presses; `patterns`: paths made from a few parameters (linear, fan, multipass,
+  raster, compression).
 - `simulation`: scene, simulated robot and probe, trajectory -> a Sweep file.
 - `calibration/`: probe and temporal calibration.
 """
@@ -20,7 +21,8 @@ __getattr__, __dir__, __all__ = lazy_exports(
     __name__,
     """
 factory: make_probe make_robot
-patterns: PATTERNS FanPattern LinearPattern MultipassPattern RasterPattern SweepPattern
+patterns: PATTERNS CompressionPattern FanPattern LinearPattern MultipassPattern
+patterns: RasterPattern SweepPattern
 probe: Frame Probe
 robot: Robot RobotFault
 safety: SafetyLimits

@@ -15,17 +15,22 @@ siblings are the same as one call.
   next pass's start stay on the skin and are not imaging segments.
 - `RasterPattern`: a zig-zag whose passes alternate direction, joined by U-turns on the skin
   (no lift, the probe keeps its orientation); the U-turns are not imaging segments.
+- `CompressionPattern`: stations along the vessels where the probe, transverse to them, presses
+  from light contact to a target force and releases (force mode, imaging), sliding on at light
+  contact to the next; each station is a stop and a zero-length imaging segment.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from resus.acquisition.safety import SafetyLimits
 from resus.acquisition.trajectory import Trajectory
 from resus.errors import ResusError
 from sim.phantom import Phantom
@@ -35,6 +40,9 @@ WAYPOINT_SPACING = 0.005
 """Distance between waypoints along a pattern (m): fine enough to follow a curved skin."""
 FAN_STEP_DEG = 1.0
 """Angle between a fan's waypoints (deg)."""
+PRESS_FORCE_MARGIN = 0.8
+"""A compression's press force may reach this fraction of the scanner's force limit: the
+admittance loop overshoots the setpoint while it rises, and the limit stops the scan."""
 
 
 def probe_orientation(skin_normal: np.ndarray, direction: np.ndarray, tilt: float) -> np.ndarray:
@@ -291,9 +299,96 @@ class RasterPattern(MultipassPattern):
         return pieces
 
 
+@dataclass(frozen=True)
+class CompressionPattern(SweepPattern):
+    """Presses at `stations` points along the vessels, `station_spacing` m apart from `start`
+    along `direction` (the vessels' course), the probe's array across it (transverse images).
+
+    At each station, in force mode and imaging throughout: `light_time` s at light contact
+    (`contact_force`), a linear rise to `press_force` over `press_time` s, `hold_time` s at
+    it, a linear fall back over `press_time` s and `light_time` s more at light contact. The
+    probe slides on to the next station at light contact and `speed`; those transit frames are
+    not imaging segments. The press force stays within PRESS_FORCE_MARGIN of the scanner's
+    default force limit (20 N)."""
+
+    start: tuple[float, float] = (0.0, -0.03)
+    contact_force: float | None = 2.0
+    stations: int = 3
+    station_spacing: float = 0.03
+    press_force: float = 12.0
+    press_time: float = 2.0
+    hold_time: float = 1.0
+    light_time: float = 1.0
+    name: ClassVar[str] = "compression"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        kind = type(self).__name__
+        if self.contact_force is None:
+            raise ResusError(f"{kind}.contact_force must be set: the press runs in force mode")
+        if self.stations < 2:
+            raise ResusError(f"{kind}.stations must be at least 2, got {self.stations}")
+        for field, lowest in (("station_spacing", 0.0), ("press_time", 0.0)):
+            value = getattr(self, field)
+            if not (np.isfinite(value) and value > lowest):
+                raise ResusError(f"{kind}.{field} must be positive, got {value}")
+        for field in ("hold_time", "light_time"):
+            value = getattr(self, field)
+            if not (np.isfinite(value) and value >= 0):
+                raise ResusError(f"{kind}.{field} must be >= 0, got {value}")
+        highest = PRESS_FORCE_MARGIN * SafetyLimits().max_force
+        if not self.contact_force < self.press_force <= highest:
+            raise ResusError(
+                f"{kind}.press_force must lie above the light contact force "
+                f"({self.contact_force} N) and at most {highest:g} N "
+                f"({PRESS_FORCE_MARGIN:.0%} of the scanner's force limit), got {self.press_force}"
+            )
+
+    @property
+    def station_points(self) -> np.ndarray:
+        """(stations, 2) phantom-frame (x, y) of each station."""
+        steps = np.arange(self.stations)[:, None] * self.station_spacing
+        return np.asarray(self.start, dtype=np.float64) + steps * self.heading[:2]
+
+    def press_knots(self, start: float) -> list[tuple[float, float]]:
+        """(time s, force N) knots of one station's press beginning at `start` (s)."""
+        light, press = float(self.contact_force or 0.0), self.press_force
+        times = np.cumsum([start, self.light_time, self.press_time, self.hold_time,
+                           self.press_time, self.light_time])  # fmt: skip
+        forces = [light, light, press, press, light, light]
+        knots = [(float(t), f) for t, f in zip(times, forces, strict=True)]
+        return [knot for k, knot in enumerate(knots) if k == 0 or knot[0] > knots[k - 1][0]]
+
+    @property
+    def station_time(self) -> float:
+        """Seconds the probe rests at each station."""
+        return 2 * (self.light_time + self.press_time) + self.hold_time
+
+    def trajectory(self, phantom: Phantom, phantom_to_base: np.ndarray) -> Trajectory:
+        points = self.station_points
+        pieces = [_straight(a, b) for a, b in itertools.pairwise(points)]
+        xy = np.concatenate([pieces[0], *(piece[1:] for piece in pieces[1:])])
+        tilts = np.full(len(xy), np.radians(self.tilt_deg))
+        waypoints = skin_poses(phantom, phantom_to_base, xy, self.heading, tilts)
+        trajectory = self._trajectory(
+            waypoints, stations=int(self.stations), station_spacing=float(self.station_spacing),
+            press_force=float(self.press_force), press_time=float(self.press_time),
+            hold_time=float(self.hold_time), light_time=float(self.light_time),
+        )  # fmt: skip
+        knots = np.concatenate([[0.0], np.cumsum(trajectory.segment_lengths)])
+        arcs = knots[np.cumsum([0, *(len(piece) - 1 for piece in pieces)])]
+        stopped = dataclasses.replace(
+            trajectory,
+            stops=tuple((float(arc), self.station_time) for arc in arcs),
+            imaging_segments=tuple((float(arc), float(arc)) for arc in arcs),
+        )
+        profile = [knot for start, _ in stopped.stop_times() for knot in self.press_knots(start)]
+        return dataclasses.replace(stopped, force_profile=tuple(profile))
+
+
 PATTERNS: dict[str, type[SweepPattern]] = {
     pattern.name: pattern
-    for pattern in (LinearPattern, FanPattern, MultipassPattern, RasterPattern)
+    for pattern in (LinearPattern, FanPattern, MultipassPattern, RasterPattern, CompressionPattern)
 }
 """Every pattern by its name, as `resus plan --pattern` and the trajectory files call it."""
 
@@ -316,3 +411,8 @@ def multipass_sweep(phantom: Phantom, phantom_to_base: np.ndarray, **parameters)
 def raster_sweep(phantom: Phantom, phantom_to_base: np.ndarray, **parameters) -> Trajectory:
     """`RasterPattern(**parameters)` over `phantom`."""
     return RasterPattern(**parameters).trajectory(phantom, phantom_to_base)
+
+
+def compression_sweep(phantom: Phantom, phantom_to_base: np.ndarray, **parameters) -> Trajectory:
+    """`CompressionPattern(**parameters)` over `phantom`."""
+    return CompressionPattern(**parameters).trajectory(phantom, phantom_to_base)

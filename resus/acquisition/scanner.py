@@ -6,6 +6,10 @@ clock, and the frame is paired with the pose interpolated there (linear in posit
 in rotation), as PLUS does with tracker and video streams. A frame is written as soon as the
 history covers its time, so a frame that arrives late is still placed where it was taken.
 
+A trajectory with a force profile (a compression scan's presses) changes the force-mode
+setpoint on the way: the same loop re-sends force mode whenever the profile has moved
+`force_step` from the setpoint last sent, or settles at another value.
+
 Safety is checked here, for every backend: the whole plan before moving, every streamed
 target, every wrench reading and the robot's own fault state. Any violation, fault or Ctrl-C
 stops the robot, closes the Sweep with every frame recorded so far, and raises ScanAborted.
@@ -50,9 +54,16 @@ class ScannerSettings:
     """...once it has stayed within it this long (s)."""
     max_frame_latency: float = 0.5
     """How long after the path ends the scanner waits for late frames (s)."""
+    force_step: float = 0.1
+    """Change of a force profile (N) after which force mode is re-sent with the new setpoint:
+    each re-send costs the RTDE backend two control periods of the stream, so not every one."""
     progress: bool = True
     """Say on stderr what the robot is doing (approach, contact, lift-off) and show a progress
     bar over the sweep."""
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.force_step) and self.force_step > 0):
+            raise ResusError(f"ScannerSettings.force_step must be positive, got {self.force_step}")
 
 
 @dataclass(frozen=True)
@@ -137,10 +148,11 @@ class Scanner:
         """Refuse, before anything moves, a plan that breaks a safety limit."""
         samples = trajectory.poses_at(np.linspace(0.0, trajectory.duration, 200))
         approach = [trajectory.approach_pose(samples[0]), trajectory.approach_pose(samples[-1])]
+        forces = trajectory.force_range
         reasons = self.limits.plan_violations(
             np.concatenate([np.stack(approach), samples]),
             trajectory.speed,
-            trajectory.contact_force,
+            None if forces is None else forces[1],
         )
         if reasons:
             raise SafetyViolation(f"unsafe plan '{trajectory.name}': " + "; ".join(reasons))
@@ -206,7 +218,7 @@ class Scanner:
             self.robot.wait_period()
             self._check_state()
             now = self.robot.time()
-            force = float(self.robot.tcp_wrench()[:3] @ self.robot.tcp_pose()[:3, 2])
+            force = self.robot.probe_force()
             error = abs(force - trajectory.contact_force) / trajectory.contact_force
             if error >= settings.settle_tolerance:
                 settled_since = None
@@ -222,10 +234,11 @@ class Scanner:
     def _sweep(self, trajectory: Trajectory, recorded: _Recording) -> None:
         """Stream the path at the control rate and record every frame taken along it.
 
-        The path is sampled once at the control period (target k is the plan at k periods).
-        Each pass sends the target for the robot's elapsed time, so a loop that falls behind
-        real time skips targets rather than stretching the sweep; after the last target the
-        probe holds still until the frames still in flight have arrived.
+        The path is sampled once at the control period (target k is the plan at k periods),
+        and so is a force profile. Each pass sends the target for the robot's elapsed time
+        (and the force setpoint, when due), so a loop that falls behind real time skips
+        targets rather than stretching the sweep; after the last target the probe holds still
+        until the frames still in flight have arrived.
 
         The progress bar counts the sweep's seconds on the robot clock, with the frames
         recorded beside them: a count of frames cannot have a total, since a probe may run
@@ -236,6 +249,8 @@ class Scanner:
         period = robot.control_period
         periods = int(np.ceil(trajectory.duration / period))
         targets = trajectory.poses_at(np.arange(periods + 1) * period)
+        forces = trajectory.force_at(np.arange(periods + 1) * period)
+        setpoint = trajectory.contact_force
         history = _PoseHistory()
         self.probe.poll()  # discard frames taken before the sweep
         history.record(robot)
@@ -255,6 +270,11 @@ class Scanner:
                 index = min(periods, max(sent, round((now - start_time) / period)))
                 elapsed = max(index - sent, 1) * period
                 self.limits.check_target(targets[index], targets[sent], elapsed)
+                if trajectory.force_profile is not None and _setpoint_due(
+                    forces, index, setpoint, settings.force_step
+                ):
+                    setpoint = float(forces[index])
+                    robot.force_mode(setpoint)
                 robot.servo_linear(targets[index])
                 sent = index
                 robot.wait_period()
@@ -323,6 +343,16 @@ class Scanner:
             self.robot.stop()
         except RobotFault:
             pass
+
+
+def _setpoint_due(forces: np.ndarray, index: int, sent: float | None, step: float) -> bool:
+    """Whether force mode is re-sent at target `index` of the sampled profile `forces`: it has
+    moved `step` from the setpoint `sent`, or it settles (holds) at another value there."""
+    force = float(forces[index])
+    if sent is None or force == sent:
+        return False
+    settles = index + 1 >= len(forces) or forces[index + 1] == force
+    return abs(force - sent) >= step or settles
 
 
 class _Recording:

@@ -28,6 +28,12 @@ PATTERN_FLAGS = {
     "fan_deg": "--fan-angle",
     "passes": "--passes",
     "offset": "--offset",
+    "stations": "--stations",
+    "station_spacing": "--station-spacing",
+    "press_force": "--press-force",
+    "press_time": "--press-time",
+    "hold_time": "--hold-time",
+    "light_time": "--light-time",
 }
 """The pattern setting each flag sets (`resus.acquisition.patterns`)."""
 PATTERN_DEFAULT = "(default: the pattern's)"
@@ -51,7 +57,9 @@ def make_pattern(name: str, given: Mapping[str, object]):
 
 def plan(
     out: Annotated[Path, typer.Option(help="Trajectory YAML to write (resus.trajectory/1).")],
-    pattern: Annotated[str, typer.Option(help="linear, fan, multipass or raster.")] = "linear",
+    pattern: Annotated[
+        str, typer.Option(help="linear, fan, multipass, raster or compression.")
+    ] = "linear",
     start: Annotated[
         str | None, typer.Option(help=f"Start x,y on the skin (m, phantom) {PATTERN_DEFAULT}.")
     ] = None,
@@ -64,7 +72,8 @@ def plan(
     ] = None,
     acceleration: Annotated[float | None, typer.Option(help="Acceleration (m/s^2).")] = None,
     force: Annotated[
-        float | None, typer.Option(help="Contact force (N); 0: position control.")
+        float | None,
+        typer.Option(help="Contact force (N; compression: light contact); 0: position control."),
     ] = None,
     frame_rate: Annotated[float | None, typer.Option(help="Frames per second.")] = None,
     tilt: Annotated[float | None, typer.Option(help="Tilt about the array axis (deg).")] = None,
@@ -72,6 +81,24 @@ def plan(
     passes: Annotated[int | None, typer.Option(help="Multipass/raster: number of passes.")] = None,
     offset: Annotated[
         float | None, typer.Option(help="Multipass/raster: pass spacing (m).")
+    ] = None,
+    stations: Annotated[
+        int | None, typer.Option(help="Compression: number of stations, from --start on.")
+    ] = None,
+    station_spacing: Annotated[
+        float | None, typer.Option(help="Compression: distance between stations (m).")
+    ] = None,
+    press_force: Annotated[
+        float | None, typer.Option(help="Compression: force of each press (N).")
+    ] = None,
+    press_time: Annotated[
+        float | None, typer.Option(help="Compression: rise (and fall) of each press (s).")
+    ] = None,
+    hold_time: Annotated[
+        float | None, typer.Option(help="Compression: time at the press force (s).")
+    ] = None,
+    light_time: Annotated[
+        float | None, typer.Option(help="Compression: light contact before and after (s).")
     ] = None,
     voxel_size: Annotated[float, typer.Option(help="Intended voxel size (m).")] = 0.5e-3,
     scene: SceneOption = "default",
@@ -100,6 +127,12 @@ def plan(
         "fan_deg": fan_angle,
         "passes": passes,
         "offset": offset,
+        "stations": stations,
+        "station_spacing": station_spacing,
+        "press_force": press_force,
+        "press_time": press_time,
+        "hold_time": hold_time,
+        "light_time": light_time,
     }
     given = {setting: value for setting, value in given.items() if value is not None}
     if given.get("contact_force") == 0:

@@ -115,8 +115,13 @@ def describe_plan(trajectory, source: Path, limits, robot_pose: np.ndarray, prob
     start = trajectory.pose_at(0.0)
     approach = trajectory.approach_pose(start)
     distance = float(np.linalg.norm(approach[:3, 3] - robot_pose[:3, 3]))
-    force = trajectory.contact_force
-    control = "position control" if force is None else f"force mode at {force:.1f} N"
+    forces = trajectory.force_range
+    control = "position control"
+    if forces is not None:
+        low, high = forces
+        control = f"force mode at {low:.1f} N"
+        if high > low:
+            control = f"force mode at {low:.1f}-{high:.1f} N (profile)"
     frames = int(trajectory.duration * trajectory.frame_rate)
     low, high = np.array(limits.workspace_min), np.array(limits.workspace_max)
 

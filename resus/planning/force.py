@@ -126,19 +126,24 @@ def simulate_force(
 def check_contact_force(
     trajectory: Trajectory, profile: ForceProfile, limits: SafetyLimits
 ) -> CheckResult:
-    """The set force lies between MIN_CONTACT_FORCE and the limit, and the force the
-    simulated scan reads stays under the limit all the way (position control: only that)."""
-    force = trajectory.contact_force
-    if force is not None and not MIN_CONTACT_FORCE <= force <= limits.max_force:
-        target = MIN_CONTACT_FORCE if force < MIN_CONTACT_FORCE else limits.max_force
-        return CheckResult(
-            "contact force",
-            False,
-            f"{force:.1f} N set (bounds {MIN_CONTACT_FORCE:.0f}-{limits.max_force:.0f} N)",
-            place_at(trajectory, 0.0),
-            f"set the contact force to {target:.0f} N",
-        )
-    held = "position control" if force is None else f"{force:.1f} N set"
+    """The set force (every value of a force profile) lies between MIN_CONTACT_FORCE and the
+    limit, and the force the simulated scan reads (the profile's setpoints re-sent as the
+    scanner does) stays under the limit all the way (position control: only that)."""
+    forces = trajectory.force_range
+    held = "position control"
+    if forces is not None:
+        low, high = forces
+        held = f"{low:.1f} N set" if low == high else f"{low:.1f}-{high:.1f} N set (profile)"
+        bad = low if low < MIN_CONTACT_FORCE else high
+        if not MIN_CONTACT_FORCE <= low <= high <= limits.max_force:
+            target = MIN_CONTACT_FORCE if bad < MIN_CONTACT_FORCE else limits.max_force
+            return CheckResult(
+                "contact force",
+                False,
+                f"{held} (bounds {MIN_CONTACT_FORCE:.0f}-{limits.max_force:.0f} N)",
+                place_at(trajectory, _time_of_force(trajectory, bad)),
+                f"set the contact force to {target:.0f} N",
+            )
     advice = "slow down (a fan: rock more slowly), lower the contact force or the acceleration"
     if profile.aborted is not None:
         place = None  # where it stopped: at the last reading
@@ -154,6 +159,13 @@ def check_contact_force(
         return CheckResult("contact force", True, f"{summary} (limit {limits.max_force:.0f} N)")
     place = place_at(trajectory, nearest_path_time(trajectory, profile.poses[peak]))
     return CheckResult("contact force", False, summary, place, advice)
+
+
+def _time_of_force(trajectory: Trajectory, force: float) -> float:
+    """The first time (s) the set force is `force`: 0 without a profile."""
+    if trajectory.force_profile is None:
+        return 0.0
+    return next(t for t, value in trajectory.force_profile if value == force)
 
 
 def nearest_path_time(trajectory: Trajectory, pose: np.ndarray) -> float:

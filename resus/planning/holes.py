@@ -112,7 +112,13 @@ def estimate_holes(
 def check_holes(
     trajectory: Trajectory, frames: FrameSamples, estimate: HoleEstimate
 ) -> CheckResult:
-    """The swept volume has at most MAX_HOLE_FRACTION holes before hole filling."""
+    """The swept volume has at most MAX_HOLE_FRACTION holes before hole filling; a scan that
+    images at stations only (a compression scan) sweeps no volume and passes."""
+    stations = trajectory.station_segments
+    if stations and len(stations) == len(trajectory.imaging_segments or ()):
+        return CheckResult(
+            "reconstruction holes", True, f"imaging at {len(stations)} stations: no volume swept"
+        )
     fraction = estimate.fraction
     summary = (
         f"{fraction:.1%} of {int(estimate.swept.sum())} swept voxels unobserved "

@@ -29,8 +29,11 @@ SPACING_MARGIN = 0.95
 def check_safety(trajectory: Trajectory, samples: PathSamples, limits: SafetyLimits) -> CheckResult:
     """The scanner's own limits (workspace box, TCP speed, force) hold for the whole plan."""
     approach = np.stack([trajectory.approach_pose(p) for p in samples.poses[[0, -1]]])
+    forces = trajectory.force_range
     reasons = limits.plan_violations(
-        np.concatenate([approach, samples.poses]), trajectory.speed, trajectory.contact_force
+        np.concatenate([approach, samples.poses]),
+        trajectory.speed,
+        None if forces is None else forces[1],
     )
     if not reasons:
         return CheckResult(
@@ -104,10 +107,13 @@ def plane_advance(frames: FrameSamples, probe: LinearProbe) -> np.ndarray:
 def check_progress(
     trajectory: Trajectory, frames: FrameSamples, probe: LinearProbe, voxel_size: float
 ) -> CheckResult:
-    """Within each imaging segment the image plane keeps moving one way."""
+    """Within each imaging segment the image plane keeps moving one way (stations, where the
+    probe rests to image in place, excepted)."""
     advance = plane_advance(frames, probe)
     window = max(1, round(STATIONARY_TIME * trajectory.frame_rate))
-    for segment in np.unique(frames.segment[frames.segment >= 0]):
+    stations = trajectory.station_segments
+    swept = [k for k in np.unique(frames.segment[frames.segment >= 0]) if k not in stations]
+    for segment in swept:
         members = np.flatnonzero(frames.segment[:-1] == segment)
         members = members[frames.segment[members + 1] == segment]
         steps = advance[members]
@@ -138,4 +144,9 @@ def check_progress(
                     place_at(trajectory, frames.times[start], frames.times[start + window]),
                     "remove the pause, or sweep across the probe's array instead of along it",
                 )
-    return CheckResult("progress", True, "every imaging segment advances steadily one way")
+    if not swept:
+        return CheckResult("progress", True, f"imaging at {len(stations)} stations only")
+    at_stations = f" ({len(stations)} stations image in place)" if stations else ""
+    return CheckResult(
+        "progress", True, f"every imaging segment advances steadily one way{at_stations}"
+    )

@@ -71,7 +71,7 @@ def analyse_motion(
         speeds[:solved] = np.gradient(joints[:solved], times, axis=0)
         accelerations = np.gradient(speeds[:solved], times, axis=0)
         torques[:solved] = _torques(
-            ur3e, joints[:solved], speeds[:solved], accelerations, trajectory.contact_force
+            ur3e, joints[:solved], speeds[:solved], accelerations, trajectory.force_at(times)
         )
     for i in range(solved):
         manipulability[i] = kinematics.manipulability(joints[i])
@@ -83,8 +83,9 @@ def _torques(
     joints: np.ndarray,
     speeds: np.ndarray,
     accelerations: np.ndarray,
-    contact_force: float | None,
+    contact_forces: np.ndarray,
 ) -> np.ndarray:
+    """Joint torques at each sample, the set contact force (NaN: none) pushing on the TCP."""
     model = copy.deepcopy(ur3e.model)
     model.body_gravcomp[:] = 0.0
     model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_ACTUATION)
@@ -92,14 +93,15 @@ def _torques(
     data = mujoco.MjData(model)
     flange_to_tcp = ur3e.get_tcp()
     out = np.empty_like(joints)
-    for i, (q, qd, qdd) in enumerate(zip(joints, speeds, accelerations, strict=True)):
+    samples = zip(joints, speeds, accelerations, contact_forces, strict=True)
+    for i, (q, qd, qdd, force) in enumerate(samples):
         data.qpos[:6], data.qvel[:6], data.qacc[:6] = q, qd, qdd
         mujoco.mj_inverse(model, data)
         out[i] = data.qfrc_inverse[:6]
-        if contact_force is not None:
+        if np.isfinite(force):
             tcp = kinematics.forward_kinematics(q) @ flange_to_tcp
             linear = kinematics.jacobian(q, flange_to_tcp)[:3]
-            out[i] += linear.T @ (contact_force * tcp[:3, 2])
+            out[i] += linear.T @ (force * tcp[:3, 2])
     return out
 
 

@@ -2,6 +2,9 @@
 
 - `map`: the label images compounded into a vessel map (`VesselMapSettings`, `VesselMap`).
 - `anatomy`: the map's connected parts, classed artery or vein by the femoral anatomy.
+- `sections`: vessel cross-sections in each frame, followed through the sweep in 3D.
+- `compression`: artery or vein by pressing: the vein collapses, the artery stays open and
+  pulses; the frames relabelled by it.
 - `track`: a vessel's course, cross-section by cross-section along the leg.
 - `needle`: the insertion site (skin entry, direction, depth) from the map and the skin.
 - `mesh_distance`: exact distance from points to a triangle mesh.
@@ -11,6 +14,12 @@
 """
 
 from resus.vessels.anatomy import AnatomicalFrame, VesselPart, assign_by_anatomy, find_parts
+from resus.vessels.compression import (
+    CompressionResult,
+    CompressionSettings,
+    VesselCall,
+    classify_by_compression,
+)
 from resus.vessels.figures import save_mesh_views, save_needle_slice
 from resus.vessels.map import (
     VesselMap,
@@ -36,18 +45,25 @@ from resus.vessels.pipeline import (
     map_vessels,
     write_meshes,
 )
+from resus.vessels.sections import Section, SectionSettings, SectionTrack, follow_sections
 from resus.vessels.track import CrossSection, VesselTrack, vessel_track
 
 __all__ = [
     "AnatomicalFrame",
+    "CompressionResult",
+    "CompressionSettings",
     "CrossSection",
     "MeshDistance",
     "MeshSummary",
     "NeedlePlan",
     "NeedleSettings",
     "NeedleTruth",
+    "Section",
+    "SectionSettings",
+    "SectionTrack",
     "SkinModel",
     "SurfaceDistances",
+    "VesselCall",
     "VesselJob",
     "VesselMap",
     "VesselMapResult",
@@ -57,8 +73,10 @@ __all__ = [
     "VesselTrack",
     "assign_by_anatomy",
     "build_vessel_map",
+    "classify_by_compression",
     "dice",
     "find_parts",
+    "follow_sections",
     "lookup_nearest",
     "map_vessels",
     "needle_truth",

@@ -10,9 +10,11 @@ between voxels, not on their faces.
 
 The vessel mask (share > 0.5) is split into 6-connected parts; parts under
 `min_part_volume` are specks and dropped, the rest get their class by anatomy
-(`resus.vessels.anatomy`). Each voxel belongs to the part nearest to it, so a class's surface
-is the 0.5 level of the share over its parts' territory only. Surfaces are Taubin-smoothed
-(a low-pass filter that does not shrink the mesh, unlike plain Laplacian smoothing).
+(`resus.vessels.anatomy`), or keep the labels' class where the labels were already told apart
+(by compression, `resus.vessels.compression`). Each voxel belongs to the part nearest to it,
+so a class's surface is the 0.5 level of the share over its parts' territory only. Surfaces
+are Taubin-smoothed (a low-pass filter that does not shrink the mesh, unlike plain Laplacian
+smoothing).
 """
 
 from __future__ import annotations
@@ -32,6 +34,9 @@ from resus.reconstruction.grid import VolumeGrid, aabb_grid
 from resus.sweep.model import pixels_to_world
 from resus.vessels.anatomy import AnatomicalFrame, VesselPart, assign_by_anatomy, find_parts
 from sim.labels import LABEL_NAMES, VEIN, VESSEL_CLASSES
+
+CLASS_RULES = ("anatomy", "labels")
+"""How the map's parts get their class (`VesselMapSettings.classes`)."""
 
 SURFACE_LEVEL = 0.5
 """Vessel share at which the surface is drawn: where vessel and background pixels balance."""
@@ -55,8 +60,17 @@ class VesselMapSettings:
     """Taubin smoothing passes on each surface (0: none)."""
     reconstruction: ReconstructionSettings = field(default_factory=ReconstructionSettings)
     """Compounding settings for both reconstructions (radius, alpha, hole filling)."""
+    classes: str = "anatomy"
+    """How the map's parts get their class: 'anatomy' (the femoral artery lies lateral to the
+    vein, whatever the labels say) or 'labels' (each part keeps the labels' majority class:
+    labels already told apart, e.g. by compression)."""
 
     def __post_init__(self) -> None:
+        if self.classes not in CLASS_RULES:
+            raise ResusError(
+                f"VesselMapSettings.classes must be one of {', '.join(CLASS_RULES)}, "
+                f"got {self.classes!r}"
+            )
         if not self.spacing > 0:
             raise ResusError(f"VesselMapSettings.spacing must be positive, got {self.spacing}")
         for name in ("margin", "min_part_volume", "smoothing_iterations"):
@@ -151,7 +165,7 @@ def build_vessel_map(
     part_index, parts = find_parts(
         vessel_share > SURFACE_LEVEL, bmode.labels, grid, frame, settings.min_part_volume
     )
-    anatomy = assign_by_anatomy(parts)
+    anatomy = assign_by_anatomy(parts) if settings.classes == "anatomy" else keep_labels(parts)
     owner = nearest_part(part_index, grid)
     map_labels = np.zeros(grid.shape, dtype=np.uint8)
     meshes = {}
@@ -168,6 +182,15 @@ def build_vessel_map(
         grid, bmode.volume, vessel_share, bmode.labels, share.filled, map_labels, parts, anatomy,
         meshes,
     )  # fmt: skip
+
+
+def keep_labels(parts: list[VesselPart]) -> str:
+    """Give every part the labels' majority class in it; returns the reasoning."""
+    for part in parts:
+        part.label = part.segmented_label
+    names = [LABEL_NAMES[part.label] for part in parts]
+    counts = ", ".join(f"{names.count(name)} {name}" for name in VESSEL_CLASSES)
+    return f"each part keeps its labels' majority class ({counts} part(s))"
 
 
 def nearest_part(part_index: np.ndarray, grid: VolumeGrid) -> np.ndarray:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -86,6 +86,9 @@ class VesselMapResult:
     """The planned path on the phantom (a simulated sweep with a safe site only)."""
     files: tuple[str, ...]
     """The files written beside vessels.json, relative to the output folder."""
+    extra: dict[str, object] = field(default_factory=dict)
+    """More sections of vessels.json from before the map (e.g. "compression": how the
+    frames were relabelled)."""
 
     def scores_to_dict(self) -> dict[str, dict] | str:
         """vessels.json's "scores": the per-class scores, or why there are none."""
@@ -110,6 +113,7 @@ class VesselMapResult:
         }
         if self.needle_truth is not None:
             data["needle_truth"] = self.needle_truth.to_dict()
+        data.update(self.extra)
         data["files"] = list(self.files)
         return data
 
@@ -122,18 +126,21 @@ def map_vessels(
     sources: dict[str, str],
     job: VesselJob | None = None,
     progress: bool | tqdm = False,
+    extra: Mapping[str, object] | None = None,
 ) -> VesselMapResult:
     """Map the vessels of `sweep` from `labels`, plan the needle, score a simulated sweep
     against its phantom, and write meshes, the label volume, pictures and `vessels.json`
-    into `out`. `sources` names the sweep and the labels in the metrics.
+    into `out`. `sources` names the sweep and the labels in the metrics; `extra` adds
+    sections to vessels.json (e.g. how the labels were classified before the map).
 
     `progress`: True for a bar of its own over the `MAP_STEPS`, or a bar to advance by them
     (`map_progress`: one bar, one rate and one time left for several maps).
     """
+    inputs = (sweep, labels, scene, out, sources, job or VesselJob())
     if isinstance(progress, tqdm):
-        return _map_vessels(sweep, labels, scene, out, sources, job or VesselJob(), progress)
+        return _map_vessels(*inputs, progress, dict(extra or {}))
     with map_progress(1, progress) as bar:
-        return _map_vessels(sweep, labels, scene, out, sources, job or VesselJob(), bar)
+        return _map_vessels(*inputs, bar, dict(extra or {}))
 
 
 def map_progress(maps: int, enabled: bool = True) -> tqdm:
@@ -162,6 +169,7 @@ def _map_vessels(
     sources: dict[str, str],
     job: VesselJob,
     bar: tqdm,
+    extra: dict[str, object],
 ) -> VesselMapResult:
     """`map_vessels`, one tick of `bar` per step."""
     out.mkdir(parents=True, exist_ok=True)
@@ -199,6 +207,7 @@ def _map_vessels(
             not_scored=scored.not_scored,
             needle_truth=scored.needle_truth,
             files=tuple(str(path.relative_to(out)) for path in written),
+            extra=extra,
         )
         (out / "vessels.json").write_text(json.dumps(result.to_dict(), indent=2))
     return result

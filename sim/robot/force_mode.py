@@ -4,7 +4,9 @@ Along the selected (compliant) axes of the task frame the TCP moves at a velocit
 to the force error, `v = (F_target - F_measured) / damping`, capped at the axis's speed limit;
 along the other axes it follows the position reference of the running motion command. Forces
 are UR's: the wrench the robot exerts on the environment. Only UR's force-mode type 2 (task
-frame used as given) and translational compliance are simulated.
+frame used as given) and translational compliance are simulated. Force mode sent again while
+it is on (a new setpoint, as a force profile does every few cycles) continues from where the
+last one left the TCP and its force filter, as UR's does: no jump, no ringing.
 """
 
 from __future__ import annotations
@@ -31,14 +33,24 @@ class ForceModeController:
         limits: np.ndarray,
         start_position: np.ndarray,
         damping: float = DEFAULT_DAMPING,
+        previous: ForceModeController | None = None,
     ) -> None:
+        """`previous`: the force mode this one replaces, whose reference position (instead of
+        `start_position`) and filtered force it continues."""
         self.rotation = task_frame[:3, :3].copy()
         self.selected = selection_vector[:3].astype(bool)
         self.force = wrench[:3].copy()
         self.speed_limits = limits[:3].copy()
         self.damping = damping
-        self.compliant_position = self.rotation.T @ start_position
+        self.reference_position = start_position.copy()
+        """Base-frame TCP position of the last reference (the start until the first)."""
         self.filtered_force: np.ndarray | None = None
+        if previous is not None:
+            self.reference_position = previous.reference_position.copy()
+            if previous.filtered_force is not None:
+                world = previous.rotation @ previous.filtered_force
+                self.filtered_force = self.rotation.T @ world
+        self.compliant_position = self.rotation.T @ self.reference_position
 
     def reference_pose(
         self, nominal: np.ndarray, measured_wrench: np.ndarray, dt: float
@@ -58,6 +70,7 @@ class ForceModeController:
         task = np.where(self.selected, self.compliant_position, self.rotation.T @ nominal[:3, 3])
         pose = nominal.copy()
         pose[:3, 3] = self.rotation @ task
+        self.reference_position = pose[:3, 3].copy()
         return pose
 
 

@@ -311,6 +311,8 @@ class SimulatedUR3e:
         `task_frame` is a base-frame 4x4 pose; `selection_vector` six 0/1 flags (translations
         only); `wrench` the force to exert on the environment (N, task frame); `limits` the
         maximum TCP speed along compliant axes (m/s). Other axes follow motion commands.
+        Sent again while force mode is on, it continues from the present reference (a new
+        setpoint mid-press).
         """
         self._check_ready()
         task_frame = np.asarray(task_frame, dtype=np.float64)
@@ -318,12 +320,10 @@ class SimulatedUR3e:
         wrench = np.asarray(wrench, dtype=np.float64)
         limits = np.asarray(limits, dtype=np.float64)
         check_force_mode_arguments(task_frame, selection_vector, wrench, force_type, limits)
-        start = self._reference_tcp_pose()[:3, 3]
-        if self._force_mode is not None:
-            start = self._force_mode.rotation @ self._force_mode.compliant_position
         self._force_mode = ForceModeController(
-            task_frame, selection_vector, wrench, limits, start, self.force_mode_damping
-        )
+            task_frame, selection_vector, wrench, limits, self._reference_tcp_pose()[:3, 3],
+            self.force_mode_damping, previous=self._force_mode,
+        )  # fmt: skip
 
     def force_mode_stop(self) -> None:
         """forceModeStop: leave force mode and any motion; the robot holds its reference."""
