@@ -179,6 +179,7 @@ TINY = ExperimentPreset(
     ),
     subjects=(0, 1, 2),
     phantom_scans=(TINY_SWEEP, dataclasses.replace(TINY_SWEEP, start=(0.003, -0.035))),
+    repeats=2,
 )
 ENVIRONMENT = ("executor", "command", "data_folder", "seconds")
 """results.json entries that say how and where a run went, not what it found."""
@@ -211,7 +212,8 @@ def test_subjects_experiment_gives_the_same_results_on_either_engine_and_resumes
 
     data = tmp_path / "ray" / "data"
     units = sorted((data / "training" / "subjects").iterdir())
-    assert len(units) == 6 and all((unit / "unit.json").is_file() for unit in units)
+    assert len(units) == 3 * 2 * 2  # held-out subjects x regimes x seeds
+    assert all((unit / "unit.json").is_file() for unit in units)
     before = modified(data)
     status, _, err = run_main(
         monkeypatch, capsys, *command, "--out", tmp_path / "ray", "--executor", "ray"
