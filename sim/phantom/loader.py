@@ -3,7 +3,8 @@
 A spec gives the body, tissue layers (outermost first; the last one, without a thickness,
 fills the rest), blood/wall/bone materials, and either `anatomy` (parameters of
 `FemoralAnatomy`, from which the femoral vessels and an optional femur are built) or explicit
-`vessels` and `bones` lists (name, label, control_points, radii, wall_thickness). `mechanics`
+`vessels` and `bones` lists (name, label, control_points, radii, wall_thickness); or
+`extends: NAME` and only what differs from that spec. `mechanics`
 (optional) makes the tissue deform under the probe (`TissueMechanics`). `variation` holds the
 subject generator's ranges. Every problem is reported as one ValueError naming the file.
 """
@@ -189,12 +190,36 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
 def load_phantom(name_or_path: str | Path) -> PhantomSpec:
     """Load `default`, `leg` (from assets/phantoms) or a YAML file by path."""
     path = _resolve(name_or_path)
+    data = _read_spec(path, ())
+    try:
+        return spec_from_mapping(data)
+    except (ValueError, TypeError) as error:
+        raise ValueError(f"{path}: {error}") from error
+
+
+def _read_spec(path: Path, seen: tuple[Path, ...]) -> Any:
+    """The spec's YAML mapping; `extends: NAME` (a named spec or a path) starts from that
+    spec's mapping, this file's keys laid over it (mappings merged key by key, anything else
+    replaced): a variant says only what it changes."""
+    if path.resolve() in seen:
+        raise ValueError(f"{path}: `extends` loops back to {seen[0]}")
     try:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as error:
         first_line = str(error).splitlines()[0] if str(error) else "parse error"
         raise ValueError(f"{path}: not valid YAML ({first_line})") from error
-    try:
-        return spec_from_mapping(data)
-    except (ValueError, TypeError) as error:
-        raise ValueError(f"{path}: {error}") from error
+    if not isinstance(data, dict) or "extends" not in data:
+        return data
+    changes = {key: value for key, value in data.items() if key != "extends"}
+    base = _read_spec(_resolve(str(data["extends"])), (*seen, path.resolve()))
+    return _laid_over(base, changes)
+
+
+def _laid_over(base: Any, changes: Any) -> Any:
+    """`changes` laid over `base`: mappings merged key by key, anything else replaced."""
+    if not (isinstance(base, dict) and isinstance(changes, dict)):
+        return changes
+    merged = dict(base)
+    for key, value in changes.items():
+        merged[key] = _laid_over(base.get(key), value)
+    return merged

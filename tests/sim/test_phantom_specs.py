@@ -49,6 +49,32 @@ def test_artery_lies_lateral_to_the_vein(tmp_path, side: str) -> None:
             assert (gap > 0.005).all()
 
 
+def test_the_transposed_variant_puts_the_artery_medial_and_changes_nothing_else() -> None:
+    """`extends: femoral` lays only the changed keys over the femoral spec."""
+    femoral, transposed = load_phantom("femoral"), load_phantom("femoral-transposed")
+    assert transposed.layers == femoral.layers and transposed.mechanics == femoral.mechanics
+    ranges = dict(transposed.variation.ranges)
+    assert ranges.pop("artery_vein_spacing") == (-0.019, -0.011)
+    assert ranges == {
+        k: v for k, v in femoral.variation.ranges.items() if k != "artery_vein_spacing"
+    }
+    for subject in (0, 1, 2):
+        lines = Phantom(make_subject(transposed, subject)).centrelines()
+        n = min(len(lines["CFA"]), len(lines["CFV"]))
+        assert (lines["CFA"][:n, 0] - lines["CFV"][:n, 0] < -0.005).all()  # medial on the right
+
+
+def test_extends_loops_and_unknown_bases_name_the_file(tmp_path) -> None:
+    first, second = tmp_path / "a.yaml", tmp_path / "b.yaml"
+    first.write_text(f"extends: {second}\nname: a\n")
+    second.write_text(f"extends: {first}\nname: b\n")
+    with pytest.raises(ValueError, match="`extends` loops back"):
+        load_phantom(first)
+    first.write_text("extends: nowhere\nname: a\n")
+    with pytest.raises(ValueError, match="unknown phantom 'nowhere'"):
+        load_phantom(first)
+
+
 def test_deep_femoral_artery_branches_deeper_and_lateral() -> None:
     spec = load_phantom("default")
     lines = Phantom(spec).centrelines()
