@@ -32,13 +32,19 @@ class SimulatedOutcome:
     sweep_path: Path
     frames: int
     imaging_frames: int
-    hole_fraction: float
-    """Unobserved fraction of the swept volume, SDW reconstruction without hole filling."""
+    hole_fraction: float | None
+    """Unobserved fraction of the swept volume, SDW reconstruction without hole filling;
+    None when the probe swept no volume (a compression scan images at stations)."""
 
     def describe(self) -> str:
-        return (
+        scan = (
             f"Simulated scan `{self.sweep_path.name}`: {self.frames} frames "
-            f"({self.imaging_frames} imaging); SDW reconstruction without hole filling leaves "
+            f"({self.imaging_frames} imaging); "
+        )
+        if self.hole_fraction is None:
+            return scan + "the probe swept no volume (it images at stations): no holes to count."
+        return scan + (
+            "SDW reconstruction without hole filling leaves "
             f"{self.hole_fraction:.2%} of the swept volume as holes."
         )
 
@@ -73,5 +79,6 @@ def simulate_plan(
         progress=progress, total=int(imaging.sum()),
     )  # fmt: skip
     swept, _ = swept_volume(grid, poses, segment, probe, volume.observed)
-    holes = float((swept & ~volume.observed).sum() / max(int(swept.sum()), 1))
+    swept_voxels = int(swept.sum())
+    holes = float((swept & ~volume.observed).sum() / swept_voxels) if swept_voxels else None
     return SimulatedOutcome(result.path, len(poses), int(imaging.sum()), holes)

@@ -64,4 +64,4 @@ def test_saved_plan_runs_unchanged_in_the_simulator(tmp_path: Path) -> None:
     depth = planned[nearest, 2] - recorded[:, 2]
     assert depth.min() > 0.5e-3 and depth.max() < 3e-3
     assert 0 < outcome.imaging_frames < outcome.frames  # the U-turn frames are set aside
-    assert outcome.hole_fraction < 0.05
+    assert outcome.hole_fraction is not None and outcome.hole_fraction < 0.05

@@ -143,3 +143,14 @@ def test_plan_command_writes_a_compression_plan_and_refuses_bad_flags(
         run_main(monkeypatch, capsys, "plan", "--stations", "3", "--out", out),
         "--stations does not apply to --pattern linear",
     )
+
+
+def test_a_scan_that_sweeps_no_volume_reports_no_holes_rather_than_none(tmp_path):
+    """A compression scan images at stations: its simulated outcome has no hole fraction, and
+    says why instead of printing 0 %."""
+    from resus.planning.simulated import SimulatedOutcome
+
+    stations = SimulatedOutcome(tmp_path / "press.h5", 500, 480, None).describe()
+    assert "swept no volume" in stations and "%" not in stations
+    swept = SimulatedOutcome(tmp_path / "sweep.h5", 500, 480, 0.0123).describe()
+    assert "1.23% of the swept volume as holes" in swept
