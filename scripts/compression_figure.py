@@ -29,7 +29,6 @@ import numpy as np
 from resus.acquisition.patterns import CompressionPattern
 from resus.acquisition.simulation import resolve_scene, simulate_sweep
 from resus.sweep.io import read_sweep
-from resus.sweep.model import pixel_spacing
 from sim.labels import ARTERY, VEIN
 
 
@@ -45,9 +44,9 @@ def main() -> None:
         path = Path(folder) / "press.h5"
         simulate_sweep(path, scene, pattern, progress=False)
         sweep = read_sweep(path)
-    assert sweep.labels is not None and sweep.wrench is not None
-    force = np.einsum("ni,ni->n", sweep.wrench[:, :3], sweep.probe_to_base[:, :3, 2])
-    pixel_mm2 = float(np.prod(pixel_spacing(sweep.image_to_probe))) * 1e6
+    force = sweep.axial_force
+    assert sweep.labels is not None and force is not None
+    pixel_mm2 = float(np.prod(sweep.pixel_spacing)) * 1e6
     vein = (sweep.labels == VEIN).sum(axis=(1, 2)) * pixel_mm2
     artery = (sweep.labels == ARTERY).sum(axis=(1, 2)) * pixel_mm2
     time = sweep.timestamps - sweep.timestamps[0]

@@ -72,13 +72,13 @@ def main() -> None:
         path = args.out / f"case{number}.h5"
         simulate_sweep(path, scene, trajectory, progress=False, rigid=rigid)
         sweep = read_sweep(path)
-        assert sweep.labels is not None and sweep.wrench is not None
+        force = sweep.axial_force
+        assert sweep.labels is not None and force is not None
         mapped = map_vessels(
             sweep, sweep.labels, scene, args.out / f"case{number}", {"sweep": path.name}
         )
         scores = mapped.scores_to_dict()
         assert isinstance(scores, dict)
-        force = np.einsum("ni,ni->n", sweep.wrench[:, :3], sweep.probe_to_base[:, :3, 2])
         vein_area = (sweep.labels == VEIN).sum(axis=(1, 2)).astype(float)
         results[name] = {
             "force_mean": round(float(force.mean()), 2),

@@ -293,21 +293,12 @@ def undeform_points(
         qz = pz - shift * beam[2]
         for m in range(maps.shape[0]):
             row = maps[m]
-            x, y, z = qx - row[0], qy - row[1], qz - row[2]
-            along = x * row[3] + y * row[4] + z * row[5]
-            outer = row[15]
-            if x * x + y * y + z * z - along * along >= outer * outer:
-                continue  # most points: far from this vessel's axis
-            if not row[16] <= along <= row[17]:
+            reached, ax, ay, az, rho, nu = _section_coordinates(
+                qx - row[0], qy - row[1], qz - row[2], row
+            )
+            if not reached or rho <= 0.0:
                 continue
-            ax, ay, az = x - along * row[3], y - along * row[4], z - along * row[5]
-            xb = ax * row[6] + ay * row[7] + az * row[8]
-            xn = ax * row[9] + ay * row[10] + az * row[11]
-            rho = np.sqrt(xb * xb + xn * xn)
-            radius, semi_b, semi_n = row[12], row[13], row[14]
-            if rho <= 0.0:
-                continue
-            nu = np.sqrt((xb / semi_b) ** 2 + (xn / semi_n) ** 2)
+            radius, outer = row[12], row[15]
             if nu <= 1.0:
                 scale = radius * nu / rho
             else:
@@ -322,21 +313,35 @@ def undeform_points(
 
 
 @numba.njit(cache=True, inline="always")
-def _cross_section_weight(x: float, y: float, z: float, row: np.ndarray) -> float:
-    """1 inside the deformed cross-section of map `row` (offset x, y, z from its centre),
-    falling linearly to 0 at its outer radius, 0 beyond it or its vessel's ends."""
+def _section_coordinates(
+    x: float, y: float, z: float, row: np.ndarray
+) -> tuple[bool, float, float, float, float, float]:
+    """Where the offset (x, y, z) from map `row`'s centre lies across its vessel: whether
+    the map reaches it (within the outer radius and the vessel's stretch of axis), the offset
+    across the axis, its distance from the axis and its elliptical radius in the deformed
+    cross-section (1 on the ellipse)."""
     along = x * row[3] + y * row[4] + z * row[5]
     outer = row[15]
     if x * x + y * y + z * z - along * along >= outer * outer:
-        return 0.0
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0  # most points: far from this vessel's axis
     if not row[16] <= along <= row[17]:
-        return 0.0
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
     ax, ay, az = x - along * row[3], y - along * row[4], z - along * row[5]
     xb = ax * row[6] + ay * row[7] + az * row[8]
     xn = ax * row[9] + ay * row[10] + az * row[11]
     rho = np.sqrt(xb * xb + xn * xn)
     nu = np.sqrt((xb / row[13]) ** 2 + (xn / row[14]) ** 2)
+    return True, ax, ay, az, rho, nu
+
+
+@numba.njit(cache=True, inline="always")
+def _cross_section_weight(x: float, y: float, z: float, row: np.ndarray) -> float:
+    """1 inside the deformed cross-section of map `row` (offset x, y, z from its centre),
+    falling linearly to 0 at its outer radius, 0 beyond it or its vessel's ends."""
+    reached, _, _, _, rho, nu = _section_coordinates(x, y, z, row)
+    if not reached:
+        return 0.0
     if nu <= 1.0:
         return 1.0
-    edge = rho / nu
-    return (outer - rho) / (outer - edge)
+    outer = row[15]
+    return (outer - rho) / (outer - rho / nu)
