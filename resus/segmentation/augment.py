@@ -19,18 +19,21 @@ import numpy as np
 
 from resus.segmentation.framing import ExportFraming
 from resus.segmentation.presets import AugmentationConfig
+from resus.segmentation.zoom import ScannerZoom
 
 
 @dataclass
 class AugmentationPipeline:
-    """Export framing (`resus.segmentation.framing`), then the albumentations pipeline:
-    `augment(image=uint8, mask=uint8) -> {"image", "mask"}`."""
+    """Scanner zoom (`resus.segmentation.zoom`), export framing (`resus.segmentation.framing`),
+    then the albumentations pipeline: `augment(image=uint8, mask=uint8) -> {"image", "mask"}`."""
 
+    zoom: ScannerZoom
     framing: ExportFraming
     pipeline: albu.Compose
 
     def __call__(self, *, image: np.ndarray, mask: np.ndarray) -> dict[str, np.ndarray]:
-        framed = self.framing(image=image, mask=mask)
+        zoomed = self.zoom(image=image, mask=mask)
+        framed = self.framing(**zoomed)
         return self.pipeline(image=framed["image"], mask=framed["mask"])
 
 
@@ -51,5 +54,7 @@ def build_augmentation(config: AugmentationConfig, seed: int) -> AugmentationPip
     )
     pipeline.set_random_state(np.random.default_rng(seed), random.Random(seed))
     return AugmentationPipeline(
-        ExportFraming(config, np.random.default_rng([seed, 0xF4A])), pipeline
+        ScannerZoom(config, np.random.default_rng([seed, 0x200])),
+        ExportFraming(config, np.random.default_rng([seed, 0xF4A])),
+        pipeline,
     )

@@ -75,6 +75,14 @@ class AugmentationConfig:
     """Brightness shift up to this fraction of 255, either way."""
     contrast_limit: float = 0.2
     """Contrast scaled by up to this fraction, either way."""
+    zoom_p: float = 0.0
+    """Probability of a scanner zoom (`resus.segmentation.zoom`): a random window of the frame
+    enlarged to the whole frame, before any framing. Off by default (the paper's regime has
+    none)."""
+    zoom_range: tuple[float, float] = (1.0, 1.8)
+    """Linear magnification of a zoom (1: the whole frame)."""
+    zoom_aspect: tuple[float, float] = (0.75, 1.33)
+    """Height-to-width stretch of the zoom window against the frame's, drawn log-uniformly."""
     framing_p: float = 0.0
     """Probability of export framing (`resus.segmentation.framing`): the frame shrunk into a
     black canvas like a scanner's export. Off by default (the paper's regime has none)."""
