@@ -25,6 +25,15 @@ TEXT_BLOCKS = (2, 6)
 """How many text-like blocks a corner's annotation has (fewest, most + 1)."""
 
 
+def random_window(
+    rng: np.random.Generator, shape: tuple[int, ...], height: int, width: int
+) -> tuple[slice, slice]:
+    """A `height` x `width` window at a uniformly drawn place inside an image of `shape`."""
+    top = int(rng.integers(0, shape[0] - height + 1))
+    left = int(rng.integers(0, shape[1] - width + 1))
+    return slice(top, top + height), slice(left, left + width)
+
+
 @dataclass
 class ExportFraming:
     """`framing(image=, mask=) -> {"image", "mask"}` on (S, S) uint8 arrays, drawing from `rng`."""
@@ -39,11 +48,9 @@ class ExportFraming:
         rows, cols = image.shape
         height = max(2, round(rows * self.rng.uniform(*config.framing_height)))
         width = max(2, round(cols * self.rng.uniform(*config.framing_width)))
-        top = int(self.rng.integers(0, rows - height + 1))
-        left = int(self.rng.integers(0, cols - width + 1))
+        inside = random_window(self.rng, image.shape, height, width)
         canvas = np.zeros_like(image)
         labels = np.zeros_like(mask)
-        inside = (slice(top, top + height), slice(left, left + width))
         canvas[inside] = cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA)
         labels[inside] = cv2.resize(mask, (width, height), interpolation=cv2.INTER_NEAREST)
         if self.rng.random() < config.framing_marks_p:

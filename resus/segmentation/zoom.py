@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from resus.segmentation.framing import random_window
 from resus.segmentation.presets import AugmentationConfig
 
 
@@ -36,9 +37,7 @@ class ScannerZoom:
         aspect = np.exp(self.rng.uniform(*np.log(config.zoom_aspect)))
         height = min(rows, max(2, round(rows / magnification * np.sqrt(aspect))))
         width = min(cols, max(2, round(cols / magnification / np.sqrt(aspect))))
-        top = int(self.rng.integers(0, rows - height + 1))
-        left = int(self.rng.integers(0, cols - width + 1))
-        window = (slice(top, top + height), slice(left, left + width))
+        window = random_window(self.rng, image.shape, height, width)
         return {
             "image": cv2.resize(image[window], (cols, rows), interpolation=cv2.INTER_LINEAR),
             "mask": cv2.resize(mask[window], (cols, rows), interpolation=cv2.INTER_NEAREST),
