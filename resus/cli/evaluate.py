@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from resus.cli.options import DeviceOption
 from resus.cli.parsers import flag_error
 
 if TYPE_CHECKING:
@@ -36,7 +37,7 @@ def register(app: typer.Typer) -> None:
         out: Annotated[
             Path, typer.Option(help="Output folder: metrics.json and overlays/NAME.png.")
         ] = Path("evaluation"),
-        device: Annotated[str, typer.Option(help="auto (CUDA when present), cpu, cuda.")] = "auto",
+        device: DeviceOption = "auto",
     ) -> None:
         """Segment every image, score vessel IoU and Dice against its mask, draw overlays."""
         from resus.segmentation.evaluate import evaluate_folder

@@ -21,6 +21,7 @@ from resus.cli.executor_options import (
     JobsOption,
     check_executor_flags,
 )
+from resus.cli.options import DeviceOption
 from resus.cli.parsers import flag_error, parse_index_set, parse_names
 from resus.errors import ResusError
 
@@ -28,6 +29,17 @@ if TYPE_CHECKING:
     from resus.experiments.tables import ExperimentPreset, RunOptions
 
 REGIME_HELP = "Comma list of us, imagenet, aug, resus (imagenet needs --weights)."
+
+# The options of the group's commands that mean the same in each, declared once (`sim2real`
+# makes its sweeps only and seeds more than training, so it words --data and --seed its way).
+ReportFolderOption = Annotated[
+    Path, typer.Option(help="Report folder (report.md, results.json, PNGs).")
+]
+PresetOption = Annotated[str, typer.Option(help="quick (2-core CPU) or paper (GPU).")]
+DataOption = Annotated[
+    Path | None, typer.Option(help="Scratch folder for sweeps and volumes [OUT/data].")
+]
+FirstSeedOption = Annotated[int, typer.Option(help="First training seed.")]
 SeedsOption = Annotated[
     int | None,
     typer.Option(help="Training seeds per model (--seed, --seed + 1, ...) [preset's: 3]."),
@@ -99,14 +111,12 @@ def register(app: typer.Typer) -> None:
 
     @group.command("phantom")
     def phantom_command(
-        out: Annotated[Path, typer.Option(help="Report folder (report.md, results.json, PNGs).")],
-        preset: Annotated[str, typer.Option(help="quick (2-core CPU) or paper (GPU).")] = "quick",
-        data: Annotated[
-            Path | None, typer.Option(help="Scratch folder for sweeps and volumes [OUT/data].")
-        ] = None,
-        seed: Annotated[int, typer.Option(help="First training seed.")] = 0,
+        out: ReportFolderOption,
+        preset: PresetOption = "quick",
+        data: DataOption = None,
+        seed: FirstSeedOption = 0,
         seeds: SeedsOption = None,
-        device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
+        device: DeviceOption = "auto",
         jobs: JobsOption = 2,
         executor: ExecutorOption = "local",
         address: AddressOption = None,
@@ -132,8 +142,8 @@ def register(app: typer.Typer) -> None:
 
     @group.command("subjects")
     def subjects_command(
-        out: Annotated[Path, typer.Option(help="Report folder (report.md, results.json, PNGs).")],
-        preset: Annotated[str, typer.Option(help="quick (2-core CPU) or paper (GPU).")] = "quick",
+        out: ReportFolderOption,
+        preset: PresetOption = "quick",
         subjects: Annotated[
             str | None,
             typer.Option(help="K (subjects 0..K-1), or e.g. 0-5 or 0,2,5 [preset's]."),
@@ -142,12 +152,10 @@ def register(app: typer.Typer) -> None:
         weights: Annotated[
             Path | None, typer.Option(help="Local torchvision ResNet state dict (imagenet).")
         ] = None,
-        data: Annotated[
-            Path | None, typer.Option(help="Scratch folder for sweeps and volumes [OUT/data].")
-        ] = None,
-        seed: Annotated[int, typer.Option(help="First training seed.")] = 0,
+        data: DataOption = None,
+        seed: FirstSeedOption = 0,
         seeds: SeedsOption = None,
-        device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
+        device: DeviceOption = "auto",
         jobs: JobsOption = 2,
         executor: ExecutorOption = "local",
         address: AddressOption = None,

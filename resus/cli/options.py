@@ -1,5 +1,6 @@
-"""Options that several commands share, declared once: the scene and its phantom subject, and
-the OpenIGTLink stream of a scan."""
+"""Options that several commands share, declared once so that each reads (and is checked) the
+same everywhere: the scene and its phantom subject, the OpenIGTLink stream of a scan and the
+torch device."""
 
 from __future__ import annotations
 
@@ -17,3 +18,4 @@ IgtlPortOption = Annotated[
     ),
 ]
 IgtlHostOption = Annotated[str, typer.Option(help="Address the OpenIGTLink stream listens on.")]
+DeviceOption = Annotated[str, typer.Option(help="auto (CUDA when present), cpu, cuda.")]

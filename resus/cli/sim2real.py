@@ -11,6 +11,8 @@ import typer
 
 from resus.cli.evaluate import read_image_folders
 from resus.cli.executor_options import AddressOption, ExecutorOption, JobsOption
+from resus.cli.experiment import PresetOption, ReportFolderOption, run_options
+from resus.cli.options import DeviceOption
 from resus.cli.parsers import flag_error
 from resus.errors import ResusError
 
@@ -23,8 +25,8 @@ def register(group: typer.Typer) -> None:
         real: Annotated[
             Path, typer.Option(help="Folder of real images/NAME.png and masks/NAME.png.")
         ],
-        out: Annotated[Path, typer.Option(help="Report folder (report.md, results.json, PNGs).")],
-        preset: Annotated[str, typer.Option(help="quick (2-core CPU) or paper (GPU).")] = "quick",
+        out: ReportFolderOption,
+        preset: PresetOption = "quick",
         training: Annotated[
             str | None,
             typer.Option(help="Training preset instead of the preset's: quick, cpu128, paper."),
@@ -33,14 +35,13 @@ def register(group: typer.Typer) -> None:
             Path | None, typer.Option(help="Scratch folder for the sweeps [OUT/data].")
         ] = None,
         seed: Annotated[int, typer.Option(help="Phantom, scanner, split and training seed.")] = 0,
-        device: Annotated[str, typer.Option(help="auto, cpu or cuda.")] = "auto",
+        device: DeviceOption = "auto",
         jobs: JobsOption = 2,
         executor: ExecutorOption = "local",
         address: AddressOption = None,
     ) -> None:
         """Simulation-only U-Net scored on --real, then fine-tuned on k = 0..100 real images
         from simulation and from scratch: report.md, results.json, few_label_curve.png."""
-        from resus.cli.experiment import run_options
         from resus.execution import make_executor
         from resus.experiments.sim2real import get_sim2real_preset, real_splits, run_sim2real
         from resus.segmentation.model import resolve_device

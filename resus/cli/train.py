@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.options import DeviceOption
 from resus.cli.parsers import flag_error, parse_choice
 from resus.errors import ResusError
 
@@ -40,7 +41,7 @@ def register(app: typer.Typer) -> None:
         preset: Annotated[
             str, typer.Option(help="quick (CPU, minutes), cpu128 (CPU, 128 px) or paper (GPU).")
         ] = "quick",
-        device: Annotated[str, typer.Option(help="auto (CUDA when present), cpu, cuda.")] = "auto",
+        device: DeviceOption = "auto",
         seed: Annotated[int, typer.Option(help="Seeds weights, data order, augmentation.")] = 0,
         weights: Annotated[
             Path | None,
