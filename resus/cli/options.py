@@ -1,9 +1,10 @@
 """Options that several commands share, declared once so that each reads (and is checked) the
-same everywhere: the scene and its phantom subject, the OpenIGTLink stream of a scan and the
-torch device."""
+same everywhere: the scene and its phantom subject, the OpenIGTLink stream of a scan, the
+torch device, the sweep file a command reads or writes and the ports of the live viewer."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -19,3 +20,13 @@ IgtlPortOption = Annotated[
 ]
 IgtlHostOption = Annotated[str, typer.Option(help="Address the OpenIGTLink stream listens on.")]
 DeviceOption = Annotated[str, typer.Option(help="auto (CUDA when present), cpu, cuda.")]
+SweepArgument = Annotated[Path, typer.Argument(metavar="SWEEP", help="Sweep file (.h5).")]
+SweepOutOption = Annotated[Path, typer.Option("--out", help="Sweep file to write (.h5).")]
+GrpcPortOption = Annotated[int, typer.Option(help="gRPC port of the live viewer.")]
+WebPortOption = Annotated[int, typer.Option(help="HTTP port of the served web viewer.")]
+
+
+def recorded_subject_option(flag: str, default: str) -> typer.models.OptionInfo:
+    """The option of a command that writes a sweep naming the subject it records there;
+    `default` says what is recorded when it is not given."""
+    return typer.Option(flag, help=f"Subject recorded in the sweep (default: {default}).")

@@ -25,11 +25,15 @@ import numpy as np
 import typer
 
 from resus.cli.options import (
+    GrpcPortOption,
     IgtlHostOption,
     IgtlPortOption,
     PhantomOption,
     SceneOption,
     SubjectOption,
+    SweepOutOption,
+    WebPortOption,
+    recorded_subject_option,
 )
 from resus.cli.parsers import flag_error, parse_numbers, settings_from_flags
 from resus.errors import ResusError
@@ -172,12 +176,12 @@ def scan(
         ),
     ],
     trajectory: Annotated[Path, typer.Option(help="Trajectory YAML (resus plan).")],
-    out: Annotated[Path, typer.Option(help="Sweep file to write (.h5).")],
+    out: SweepOutOption,
     scene: SceneOption = "default",
     phantom: PhantomOption = None,
     subject: SubjectOption = None,
     subject_name: Annotated[
-        str | None, typer.Option(help="Subject recorded in the Sweep (default: the phantom's).")
+        str | None, recorded_subject_option("--subject-name", "the phantom's")
     ] = None,
     calibration: Annotated[
         Path | None,
@@ -213,8 +217,8 @@ def scan(
     volume_voxel: Annotated[
         float, typer.Option(help="Voxel size of the live reconstruction (m).")
     ] = 1e-3,
-    grpc_port: Annotated[int, typer.Option(help="gRPC port of the live viewer.")] = 9876,
-    web_port: Annotated[int, typer.Option(help="HTTP port of the served web viewer.")] = 9090,
+    grpc_port: GrpcPortOption = 9876,
+    web_port: WebPortOption = 9090,
     igtl: IgtlPortOption = None,
     igtl_host: IgtlHostOption = "127.0.0.1",
 ) -> None:

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 
+from resus.cli.options import SweepArgument, SweepOutOption, recorded_subject_option
 from resus.errors import ResusError
 
 if TYPE_CHECKING:
@@ -108,7 +109,7 @@ def _describe(path: Path) -> list[tuple[str, str]]:
 
 @sweep_app.command("info")
 def info_command(
-    sweep_path: Annotated[Path, typer.Argument(metavar="FILE", help="Sweep file (.h5).")],
+    sweep_path: SweepArgument,
 ) -> None:
     """Frames, image size, spacing, path length, frame spacing, duration and contents."""
     lines = _describe(sweep_path)
@@ -120,7 +121,7 @@ def info_command(
 @sweep_app.command("import-plus")
 def import_plus_command(
     sequence: Annotated[Path, typer.Argument(metavar="FILE.igs.mha", help="PLUS sequence.")],
-    out: Annotated[Path, typer.Option("--out", help="Sweep file to write (.h5).")],
+    out: SweepOutOption,
     calibration: Annotated[
         Path | None,
         typer.Option(
@@ -130,9 +131,7 @@ def import_plus_command(
             "(default: the sequence's ImageToProbeTransform field).",
         ),
     ] = None,
-    subject: Annotated[
-        str | None, typer.Option("--subject", help="Default: the file name.")
-    ] = None,
+    subject: Annotated[str | None, recorded_subject_option("--subject", "the file name")] = None,
 ) -> None:
     """Import a PLUS tracked sequence (millimetres, Reference frame) as a sweep file."""
     from resus.sweep.io import write_sweep
@@ -155,7 +154,7 @@ def import_plus_command(
 
 @sweep_app.command("export-plus")
 def export_plus_command(
-    sweep_path: Annotated[Path, typer.Argument(metavar="FILE", help="Sweep file (.h5).")],
+    sweep_path: SweepArgument,
     out: Annotated[Path, typer.Option("--out", help="PLUS sequence to write (.igs.mha).")],
     config: Annotated[
         Path | None,
@@ -177,7 +176,7 @@ def export_plus_command(
 
 @sweep_app.command("preview")
 def preview_command(
-    sweep_path: Annotated[Path, typer.Argument(metavar="FILE", help="Sweep file (.h5).")],
+    sweep_path: SweepArgument,
     out: Annotated[Path, typer.Option("--out", help="PNG to write.")],
     count: Annotated[int, typer.Option("--count", min=1, help="How many frames to show.")] = 12,
 ) -> None:
@@ -195,7 +194,7 @@ def preview_command(
 
 @sweep_app.command("stream")
 def stream_command(
-    sweep_path: Annotated[Path, typer.Argument(metavar="SWEEP", help="Sweep file (.h5).")],
+    sweep_path: SweepArgument,
     igtl: Annotated[
         int,
         typer.Option(
@@ -245,7 +244,7 @@ def import_ros_command(
         Path,
         _calibration_option("Probe calibration: resus.probe/1 YAML or PLUS config XML."),
     ],
-    out: Annotated[Path, typer.Option("--out", help="Sweep file to write (.h5).")],
+    out: SweepOutOption,
     pose_topic: Annotated[
         str | None, typer.Option("--pose-topic", help="geometry_msgs PoseStamped topic.")
     ] = None,
@@ -256,9 +255,7 @@ def import_ros_command(
     wrench_topic: Annotated[
         str | None, typer.Option("--wrench-topic", help="geometry_msgs WrenchStamped topic.")
     ] = None,
-    subject: Annotated[
-        str | None, typer.Option("--subject", help="Default: the bag's name.")
-    ] = None,
+    subject: Annotated[str | None, recorded_subject_option("--subject", "the bag's name")] = None,
 ) -> None:
     """Import a ROS bag (images placed by a pose topic or tf) as a sweep file."""
     from resus.sweep.io import write_sweep
@@ -284,7 +281,7 @@ def import_ros_command(
 
 @sweep_app.command("export-ros")
 def export_ros_command(
-    sweep_path: Annotated[Path, typer.Argument(metavar="SWEEP", help="Sweep file (.h5).")],
+    sweep_path: SweepArgument,
     out: Annotated[Path, typer.Option("--out", help="ROS 2 bag: FILE.mcap, or a new folder.")],
     calibration_out: Annotated[
         Path | None,
@@ -307,7 +304,7 @@ def export_ros_command(
 
 @sweep_app.command("attach-labels")
 def attach_labels_command(
-    sweep_path: Annotated[Path, typer.Argument(metavar="SWEEP", help="Sweep file (.h5).")],
+    sweep_path: SweepArgument,
     masks: Annotated[
         Path,
         typer.Option(
@@ -350,7 +347,7 @@ def attach_labels_command(
 
 @sweep_app.command("export-labels")
 def export_labels_command(
-    sweep_path: Annotated[Path, typer.Argument(metavar="SWEEP", help="Sweep file (.h5).")],
+    sweep_path: SweepArgument,
     out: Annotated[Path, typer.Option("--out", metavar="DIR", help="Folder to write.")],
     frames: Annotated[
         bool, typer.Option("--frames", help="Also write the frames (JPEGImages/, PNG).")

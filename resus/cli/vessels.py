@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from resus.cli.options import SweepArgument
 from resus.cli.parsers import flag_error, parse_choice, settings_from_flags
 from resus.errors import ResusError
 
@@ -19,7 +20,7 @@ def register(app: typer.Typer) -> None:
 
     @app.command("vessels")
     def vessels_command(
-        sweep_path: Annotated[Path, typer.Argument(metavar="SWEEP", help="Sweep .h5 file.")],
+        sweep_path: SweepArgument,
         out: Annotated[Path, typer.Option("--out", help="Output folder (created if missing).")],
         model: Annotated[
             Path | None, typer.Option("--model", help="Segmentation checkpoint (.pt).")

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from resus.cli.options import SubjectOption
+from resus.cli.options import GrpcPortOption, SubjectOption, SweepArgument, WebPortOption
 from resus.cli.parsers import parse_choice
 from resus.errors import ResusError
 
@@ -25,7 +25,7 @@ def register(app: typer.Typer) -> None:
 
     @app.command("view")
     def view(
-        sweep_path: Annotated[Path, typer.Argument(metavar="SWEEP", help="Sweep file (.h5).")],
+        sweep_path: SweepArgument,
         volume: Annotated[
             Path | None, typer.Option(help="Reconstructed volume (.nrrd/.mha) to show.")
         ] = None,
@@ -61,8 +61,8 @@ def register(app: typer.Typer) -> None:
                 "'spawn' (native viewer, needs a display).",
             ),
         ] = None,
-        grpc_port: Annotated[int, typer.Option(help="gRPC port of the live viewer.")] = 9876,
-        web_port: Annotated[int, typer.Option(help="HTTP port of the served web viewer.")] = 9090,
+        grpc_port: GrpcPortOption = 9876,
+        web_port: WebPortOption = 9090,
     ) -> None:
         """Log a recorded sweep to rerun: robot replayed from its joints, frames as 3D quads and
         2D images, force and joint series; with a volume, reslices and the scene's phantom."""
