@@ -21,7 +21,7 @@ from resus.cli.executor_options import (
     JobsOption,
     check_executor_flags,
 )
-from resus.cli.options import DeviceOption
+from resus.cli.options import DeviceOption, WeightsOption
 from resus.cli.parsers import flag_error, parse_index_set, parse_names
 from resus.errors import ResusError
 
@@ -149,9 +149,7 @@ def register(app: typer.Typer) -> None:
             typer.Option(help="K (subjects 0..K-1), or e.g. 0-5 or 0,2,5 [preset's]."),
         ] = None,
         regimes: Annotated[str, typer.Option(help=REGIME_HELP)] = "us,imagenet,aug,resus",
-        weights: Annotated[
-            Path | None, typer.Option(help="Local torchvision ResNet state dict (imagenet).")
-        ] = None,
+        weights: WeightsOption = None,
         data: DataOption = None,
         seed: FirstSeedOption = 0,
         seeds: SeedsOption = None,

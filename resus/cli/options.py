@@ -1,6 +1,7 @@
 """Options that several commands share, declared once so that each reads (and is checked) the
 same everywhere: the scene and its phantom subject, the OpenIGTLink stream of a scan, the
-torch device, the sweep file a command reads or writes and the ports of the live viewer."""
+torch device and the ImageNet encoder weights, the sweep file a command reads or writes, and
+the ports of the live viewer."""
 
 from __future__ import annotations
 
@@ -20,6 +21,9 @@ IgtlPortOption = Annotated[
 ]
 IgtlHostOption = Annotated[str, typer.Option(help="Address the OpenIGTLink stream listens on.")]
 DeviceOption = Annotated[str, typer.Option(help="auto (CUDA when present), cpu, cuda.")]
+WeightsOption = Annotated[
+    Path | None, typer.Option(help="Local torchvision ResNet state dict, for the imagenet regime.")
+]
 SweepArgument = Annotated[Path, typer.Argument(metavar="SWEEP", help="Sweep file (.h5).")]
 SweepOutOption = Annotated[Path, typer.Option("--out", help="Sweep file to write (.h5).")]
 GrpcPortOption = Annotated[int, typer.Option(help="gRPC port of the live viewer.")]

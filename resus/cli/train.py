@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from resus.cli.options import DeviceOption
+from resus.cli.options import DeviceOption, WeightsOption
 from resus.cli.parsers import flag_error, parse_choice
 from resus.errors import ResusError
 
@@ -43,10 +43,7 @@ def register(app: typer.Typer) -> None:
         ] = "quick",
         device: DeviceOption = "auto",
         seed: Annotated[int, typer.Option(help="Seeds weights, data order, augmentation.")] = 0,
-        weights: Annotated[
-            Path | None,
-            typer.Option(help="Local torchvision ResNet state dict for --regime imagenet."),
-        ] = None,
+        weights: WeightsOption = None,
         test_subject: Annotated[
             str | None,
             typer.Option(help="Hold this subject out and report its IoU (one LOSO fold)."),
