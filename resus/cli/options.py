@@ -1,7 +1,7 @@
 """Options that several commands share, declared once so that each reads (and is checked) the
 same everywhere: the scene and its phantom subject, the OpenIGTLink stream of a scan, the
 torch device and the ImageNet encoder weights, the sweep file a command reads or writes, and
-the ports of the live viewer."""
+the live viewer (rerun) with its ports."""
 
 from __future__ import annotations
 
@@ -26,6 +26,17 @@ WeightsOption = Annotated[
 ]
 SweepArgument = Annotated[Path, typer.Argument(metavar="SWEEP", help="Sweep file (.h5).")]
 SweepOutOption = Annotated[Path, typer.Option("--out", help="Sweep file to write (.h5).")]
+RerunOption = Annotated[
+    str | None,
+    typer.Option(
+        "--rerun",
+        help="Live viewer: 'serve' (web viewer on 127.0.0.1, Ctrl-C ends it) or "
+        "'spawn' (native viewer, needs a display).",
+    ),
+]
+RerunSaveOption = Annotated[
+    Path | None, typer.Option("--rerun-save", help="Save the recording to FILE.rrd.")
+]
 GrpcPortOption = Annotated[int, typer.Option(help="gRPC port of the live viewer.")]
 WebPortOption = Annotated[int, typer.Option(help="HTTP port of the served web viewer.")]
 

@@ -29,6 +29,8 @@ from resus.cli.options import (
     IgtlHostOption,
     IgtlPortOption,
     PhantomOption,
+    RerunOption,
+    RerunSaveOption,
     SceneOption,
     SubjectOption,
     SweepOutOption,
@@ -204,13 +206,8 @@ def scan(
     approach_speed: Annotated[
         float, typer.Option(help="TCP speed of the moves to and from the path (m/s).")
     ] = 0.05,
-    rerun: Annotated[
-        str | None,
-        typer.Option("--rerun", help="Live viewer: 'serve' (web, 127.0.0.1) or 'spawn'."),
-    ] = None,
-    rerun_save: Annotated[
-        Path | None, typer.Option("--rerun-save", help="Also save the recording to FILE.rrd.")
-    ] = None,
+    rerun: RerunOption = None,
+    rerun_save: RerunSaveOption = None,
     volume_every: Annotated[
         int, typer.Option(min=1, help="Log the live reconstruction every N frames.")
     ] = 30,

@@ -8,7 +8,14 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from resus.cli.options import GrpcPortOption, SubjectOption, SweepArgument, WebPortOption
+from resus.cli.options import (
+    GrpcPortOption,
+    RerunOption,
+    RerunSaveOption,
+    SubjectOption,
+    SweepArgument,
+    WebPortOption,
+)
 from resus.cli.parsers import parse_choice
 from resus.errors import ResusError
 
@@ -50,17 +57,8 @@ def register(app: typer.Typer) -> None:
             typer.Option(help="Scene name (assets/scenes) or YAML path: draw its phantom."),
         ] = None,
         subject: SubjectOption = None,
-        rerun_save: Annotated[
-            Path | None, typer.Option("--rerun-save", help="Save the recording to FILE.rrd.")
-        ] = None,
-        rerun: Annotated[
-            str | None,
-            typer.Option(
-                "--rerun",
-                help="Live viewer: 'serve' (web viewer on 127.0.0.1, Ctrl-C ends it) or "
-                "'spawn' (native viewer, needs a display).",
-            ),
-        ] = None,
+        rerun_save: RerunSaveOption = None,
+        rerun: RerunOption = None,
         grpc_port: GrpcPortOption = 9876,
         web_port: WebPortOption = 9090,
     ) -> None:
