@@ -30,8 +30,9 @@ if TYPE_CHECKING:
 
 REGIME_HELP = "Comma list of us, imagenet, aug, resus (imagenet needs --weights)."
 
-# The options of the group's commands that mean the same in each, declared once (`sim2real`
-# makes its sweeps only and seeds more than training, so it words --data and --seed its way).
+# The options that mean the same in each of the group's commands, declared once. `sim2real`
+# words --data and --seed its own way: its scratch folder holds sweeps only, and its seed also
+# draws the phantom, the scanner and the real-image split.
 ReportFolderOption = Annotated[
     Path, typer.Option(help="Report folder (report.md, results.json, PNGs).")
 ]
