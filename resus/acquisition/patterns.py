@@ -137,16 +137,29 @@ class SweepPattern:
     name: ClassVar[str] = ""
 
     def __post_init__(self) -> None:
-        kind = type(self).__name__
-        for field in ("speed", "acceleration", "frame_rate"):
-            value = getattr(self, field)
-            if not (np.isfinite(value) and value > 0):
-                raise ResusError(f"{kind}.{field} must be positive, got {value}")
+        self._require_positive("speed", "acceleration", "frame_rate")
         if self.contact_force is not None and not self.contact_force > 0:
             raise ResusError(
-                f"{kind}.contact_force must be positive or None, got {self.contact_force}"
+                f"{type(self).__name__}.contact_force must be positive or None, "
+                f"got {self.contact_force}"
             )
         sweep_heading(self.direction)
+
+    def _require_positive(self, *fields: str) -> None:
+        """Raise naming `Pattern.field` and its value for the first of `fields` that is not a
+        finite number above 0 (NaN and inf fail too)."""
+        for field in fields:
+            value = getattr(self, field)
+            if not (np.isfinite(value) and value > 0):
+                raise ResusError(f"{type(self).__name__}.{field} must be positive, got {value}")
+
+    def _require_at_least(self, field: str, lowest: int) -> None:
+        """Raise naming `Pattern.field` and its value if that count is below `lowest`."""
+        value = getattr(self, field)
+        if value < lowest:
+            raise ResusError(
+                f"{type(self).__name__}.{field} must be at least {lowest}, got {value}"
+            )
 
     @property
     def heading(self) -> np.ndarray:
@@ -237,12 +250,11 @@ class MultipassPattern(LinearPattern):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        kind = type(self).__name__
-        if self.passes < 1:
-            raise ResusError(f"{kind}.passes must be at least 1, got {self.passes}")
+        self._require_at_least("passes", 1)
         if self.passes > 1 and not (np.isfinite(self.offset) and self.offset != 0):
             raise ResusError(
-                f"{kind}.offset must be a non-zero distance (m) between passes, got {self.offset}"
+                f"{type(self).__name__}.offset must be a non-zero distance (m) between passes, "
+                f"got {self.offset}"
             )
 
     def pieces(self) -> list[tuple[np.ndarray, bool]]:
@@ -326,12 +338,8 @@ class CompressionPattern(SweepPattern):
         kind = type(self).__name__
         if self.contact_force is None:
             raise ResusError(f"{kind}.contact_force must be set: the press runs in force mode")
-        if self.stations < 2:
-            raise ResusError(f"{kind}.stations must be at least 2, got {self.stations}")
-        for field, lowest in (("station_spacing", 0.0), ("press_time", 0.0)):
-            value = getattr(self, field)
-            if not (np.isfinite(value) and value > lowest):
-                raise ResusError(f"{kind}.{field} must be positive, got {value}")
+        self._require_at_least("stations", 2)
+        self._require_positive("station_spacing", "press_time")
         for field in ("hold_time", "light_time"):
             value = getattr(self, field)
             if not (np.isfinite(value) and value >= 0):

@@ -10,6 +10,7 @@ contact with the phantom, in `sim.rtde.mujoco_arm`).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
@@ -25,6 +26,23 @@ from sim.transforms import invert_pose
 
 class UnreachableTarget(ValueError):
     """A Cartesian target has no inverse-kinematics solution within the joint limits."""
+
+
+@dataclass(frozen=True)
+class ForceModeCommand:
+    """One forceMode call, as the controller decodes it from the input registers (base frame):
+    one value for the arm, so the emulator's arms share one signature for it."""
+
+    task_frame: np.ndarray
+    """Pose (4x4) whose axes the selection, wrench and limits refer to."""
+    selection: np.ndarray
+    """Six 0/1 flags: the task-frame axes that comply."""
+    wrench: np.ndarray
+    """Force (N) and torque (Nm) to exert on the environment along the compliant axes (6,)."""
+    force_type: int
+    """UR's force-mode type: 1, 2 or 3."""
+    limits: np.ndarray
+    """Largest TCP speeds along the compliant axes (m/s, rad/s) (6,)."""
 
 
 class EmulatedArm(Protocol):
@@ -53,15 +71,8 @@ class EmulatedArm(Protocol):
     def servo_linear(self, pose: np.ndarray) -> None:
         """TCP target for the next period (raises UnreachableTarget when out of reach)."""
 
-    def force_mode(
-        self,
-        task_frame: np.ndarray,
-        selection: np.ndarray,
-        wrench: np.ndarray,
-        force_type: int,
-        limits: np.ndarray,
-    ) -> None:
-        """Comply along the selected task-frame axes to apply `wrench`; limits are speeds."""
+    def force_mode(self, command: ForceModeCommand) -> None:
+        """Comply along the selected task-frame axes to apply the wrench; limits are speeds."""
 
     def force_mode_stop(self) -> None:
         """Leave force mode: every axis position-controlled again."""
@@ -93,7 +104,7 @@ class KinematicArm:
         self._target = self._q.copy()
         self._steps = 0
         self._flange_to_tcp = np.eye(4)
-        self._force: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._force: ForceModeCommand | None = None
 
     def time(self) -> float:
         return self._steps * self.control_period
@@ -125,9 +136,9 @@ class KinematicArm:
     def _comply(self, pose: np.ndarray) -> np.ndarray:
         """Replace the target along compliant axes: free-space motion at the speed limit."""
         assert self._force is not None  # called only while force mode is on
-        task_frame, selection, wrench = self._force
+        selection, wrench = self._force.selection, self._force.wrench
         current = self.tcp_pose()
-        rotation = task_frame[:3, :3]
+        rotation = self._force.task_frame[:3, :3]
         offset = rotation.T @ (pose[:3, 3] - current[:3, 3])
         step = np.sign(wrench[:3]) * self._speed_limits[:3] * self.control_period
         offset = np.where(selection[:3] > 0, step, offset)
@@ -135,18 +146,11 @@ class KinematicArm:
         result[:3, 3] = current[:3, 3] + rotation @ offset
         return result
 
-    def force_mode(
-        self,
-        task_frame: np.ndarray,
-        selection: np.ndarray,
-        wrench: np.ndarray,
-        force_type: int,
-        limits: np.ndarray,
-    ) -> None:
-        if force_type not in (1, 2, 3):
-            raise ValueError(f"force mode type must be 1, 2 or 3, got {force_type}")
-        self._force = (np.asarray(task_frame), np.asarray(selection), np.asarray(wrench))
-        self._speed_limits = np.abs(np.asarray(limits, dtype=np.float64))
+    def force_mode(self, command: ForceModeCommand) -> None:
+        if command.force_type not in (1, 2, 3):
+            raise ValueError(f"force mode type must be 1, 2 or 3, got {command.force_type}")
+        self._force = command
+        self._speed_limits = np.abs(np.asarray(command.limits, dtype=np.float64))
 
     def force_mode_stop(self) -> None:
         self._force = None

@@ -21,7 +21,7 @@ import numpy as np
 
 from sim.robot.motions import JOINT, LINEAR
 from sim.rtde import commands as cmd
-from sim.rtde.arm import EmulatedArm
+from sim.rtde.arm import EmulatedArm, ForceModeCommand
 from sim.rtde.motion import Motion, ProfiledMove, ServoTarget, VelocityMove, twist_between
 from sim.transforms import pose_from_ur, pose_to_ur
 
@@ -382,12 +382,16 @@ class Controller:
         self.motion = VelocityMove(space, start, np.array(current), velocity, acceleration)
 
     def _force_mode(self) -> None:
-        selection = np.array([self._int(i) for i in range(2, 8)])
-        task_frame = pose_from_ur(self._doubles(0, 6))
-        wrench, limits = self._doubles(6, 6), self._doubles(12, 6)
+        command = ForceModeCommand(
+            task_frame=pose_from_ur(self._doubles(0, 6)),
+            selection=np.array([self._int(i) for i in range(2, 8)]),
+            wrench=self._doubles(6, 6),
+            force_type=self._int(1),
+            limits=self._doubles(12, 6),
+        )
         if not self.force_mode_active:
             self.hold_pose = self.arm.tcp_pose()
-        self.arm.force_mode(task_frame, selection, wrench, self._int(1), limits)
+        self.arm.force_mode(command)
         self.force_mode_active = True
 
     def _drive(self) -> None:

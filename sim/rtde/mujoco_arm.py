@@ -17,6 +17,7 @@ import numpy as np
 from sim.assets import assets_dir
 from sim.robot.scene_config import SceneConfig, load_scene_config
 from sim.robot.ur3e import CONTROL_PERIOD, SimulatedUR3e
+from sim.rtde.arm import ForceModeCommand
 
 
 def scene_path(scene: str) -> Path:
@@ -61,15 +62,14 @@ class MujocoArm:
     def servo_linear(self, pose: np.ndarray) -> None:
         self.robot.servo_linear(pose, time=CONTROL_PERIOD, lookahead_time=0.0)
 
-    def force_mode(
-        self,
-        task_frame: np.ndarray,
-        selection: np.ndarray,
-        wrench: np.ndarray,
-        force_type: int,
-        limits: np.ndarray,
-    ) -> None:
-        self.robot.force_mode(task_frame, selection, wrench, force_type, limits)
+    def force_mode(self, command: ForceModeCommand) -> None:
+        self.robot.force_mode(
+            command.task_frame,
+            command.selection,
+            command.wrench,
+            command.force_type,
+            command.limits,
+        )
 
     def force_mode_stop(self) -> None:
         self.robot.force_mode_stop()

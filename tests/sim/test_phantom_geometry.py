@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pytest
 import trimesh
@@ -10,9 +12,6 @@ from scipy.interpolate import CubicSpline
 from sim.phantom import (
     ARTERY,
     VEIN,
-    BodySpec,
-    Layer,
-    Material,
     Phantom,
     PhantomSpec,
     VesselSpec,
@@ -25,10 +24,6 @@ TOLERANCE = 10e-6
 """Where labels may legitimately differ from the brute force (m): the segment chain follows the
 spline within 2 um (its chord tolerance), and a round cone's surface differs from "radius at the
 foot of the perpendicular" by about r (dr/ds)^2 / 2 <= 6 um for the steepest taper here."""
-
-GEL = Layer("gel", 0.5, 0.5, 1.55)
-BLOOD = Material("blood", 0.02, 0.18, 1.61)
-WALL = Material("wall", 1.0, 0.6, 1.7)
 
 
 def brute_force_signed_distance(
@@ -131,7 +126,9 @@ def test_normals_are_the_distance_gradient(default_phantom: Phantom) -> None:
     assert np.quantile(agreement, 0.02) > 0.999  # a few points sit on a crease between tubes
 
 
-def arc_tube_spec(radius: float, bend_radius: float, angle: float) -> PhantomSpec:
+def arc_tube_spec(
+    gel_block_spec: Callable[..., PhantomSpec], radius: float, bend_radius: float, angle: float
+) -> PhantomSpec:
     """One constant-radius tube along a circular arc in the plane z = -0.02."""
     theta = np.linspace(0.0, angle, 10)
     points = np.stack(
@@ -139,14 +136,12 @@ def arc_tube_spec(radius: float, bend_radius: float, angle: float) -> PhantomSpe
         axis=1,
     )
     vessel = VesselSpec("arc", ARTERY, points, np.full(10, radius), 5e-4)
-    return PhantomSpec(
-        "arc", "right", BodySpec("block", (0.1, 0.1, 0.05)), (GEL,), BLOOD, WALL, None, (vessel,)
-    )
+    return gel_block_spec("arc", (0.1, 0.1, 0.05), (vessel,))
 
 
-def test_arc_tube_mesh_volume_matches_pappus() -> None:
+def test_arc_tube_mesh_volume_matches_pappus(gel_block_spec) -> None:
     radius, bend, angle = 3e-3, 0.04, np.pi / 2
-    phantom = Phantom(arc_tube_spec(radius, bend, angle))
+    phantom = Phantom(arc_tube_spec(gel_block_spec, radius, bend, angle))
     mesh = phantom.mesh("artery", resolution=0.25e-3)
     assert mesh.is_watertight and mesh.is_winding_consistent
     expected = np.pi * radius**2 * bend * angle + 4 / 3 * np.pi * radius**3
@@ -168,7 +163,7 @@ def test_vessel_meshes_are_watertight_and_match_the_exact_volume(
     assert mesh.volume == pytest.approx(monte_carlo, rel=0.03)
 
 
-def test_body_meshes_and_export_round_trip(tmp_path) -> None:
+def test_body_meshes_and_export_round_trip(tmp_path, gel_block_spec) -> None:
     block = Phantom(load_phantom("default")).mesh("body")
     assert block.is_watertight and block.volume == pytest.approx(0.1 * 0.16 * 0.06)
     assert block.bounds[1][2] == pytest.approx(0.0) and block.bounds[0][2] == pytest.approx(-0.06)
@@ -184,7 +179,9 @@ def test_body_meshes_and_export_round_trip(tmp_path) -> None:
     assert bone.is_watertight
     for suffix in ("stl", "ply"):
         path = tmp_path / f"artery.{suffix}"
-        mesh = Phantom(arc_tube_spec(3e-3, 0.04, 1.0)).mesh("artery", resolution=0.5e-3)
+        mesh = Phantom(arc_tube_spec(gel_block_spec, 3e-3, 0.04, 1.0)).mesh(
+            "artery", resolution=0.5e-3
+        )
         mesh.export(path)
         back = trimesh.load(path)
         assert back.is_watertight

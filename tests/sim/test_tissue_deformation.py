@@ -3,15 +3,13 @@ deformed images and labels against the analytic deformed geometry."""
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
 from scipy import integrate
 
 from sim.phantom import (
-    BodySpec,
-    Layer,
-    Material,
     Phantom,
     PhantomSpec,
     VesselSpec,
@@ -33,9 +31,6 @@ from sim.ultrasound.probe import LinearProbe
 from sim.ultrasound.simulator import UltrasoundSimulator
 from sim.ultrasound.skin_pose import probe_pose_on_skin
 
-GEL = Layer("gel", 0.5, 0.5, 1.55)
-BLOOD = Material("blood", 0.02, 0.18, 1.61)
-WALL = Material("wall", 1.0, 0.6, 1.7)
 VEIN_X, ARTERY_X, DEPTH = -0.008, 0.009, 0.016
 VEIN_RADIUS, ARTERY_RADIUS = 0.005, 0.0035
 MECHANICS = TissueMechanics(
@@ -49,7 +44,9 @@ MECHANICS = TissueMechanics(
 PROBE = LinearProbe(width=0.038, depth=0.04, cols=256, rows=256)
 
 
-def straight_vessels_spec(mechanics: TissueMechanics | None = MECHANICS) -> PhantomSpec:
+def straight_vessels_spec(
+    gel_block_spec: Callable[..., PhantomSpec], mechanics: TissueMechanics | None = MECHANICS
+) -> PhantomSpec:
     """A gel block with a straight vein and a straight artery along y at one depth."""
 
     def tube(name: str, label: int, x: float, radius: float) -> VesselSpec:
@@ -57,15 +54,12 @@ def straight_vessels_spec(mechanics: TissueMechanics | None = MECHANICS) -> Phan
         return VesselSpec(name, label, points, [radius] * 3, wall_thickness=0.0004)
 
     vessels = (tube("vein", 2, VEIN_X, VEIN_RADIUS), tube("artery", 1, ARTERY_X, ARTERY_RADIUS))
-    body = BodySpec("block", (0.1, 0.16, 0.06))
-    return PhantomSpec(
-        "straight", "right", body, (GEL,), BLOOD, WALL, None, vessels, mechanics=mechanics
-    )
+    return gel_block_spec("straight", (0.1, 0.16, 0.06), vessels, mechanics)
 
 
 @pytest.fixture(scope="module")
-def simulator() -> UltrasoundSimulator:
-    return UltrasoundSimulator(Phantom(straight_vessels_spec()), PROBE)
+def simulator(gel_block_spec) -> UltrasoundSimulator:
+    return UltrasoundSimulator(Phantom(straight_vessels_spec(gel_block_spec)), PROBE)
 
 
 def pixel_centres() -> tuple[np.ndarray, np.ndarray]:
@@ -240,8 +234,8 @@ def test_artery_pulses_at_the_heart_rate_by_the_set_amount_only(simulator):
     assert peak == pytest.approx(MECHANICS.heart_rate_bpm / 60.0, abs=0.25)
 
 
-def test_without_a_load_or_mechanics_every_image_is_the_rigid_worlds(simulator):
-    rigid = UltrasoundSimulator(Phantom(straight_vessels_spec(None)), PROBE)
+def test_without_a_load_or_mechanics_every_image_is_the_rigid_worlds(simulator, gel_block_spec):
+    rigid = UltrasoundSimulator(Phantom(straight_vessels_spec(gel_block_spec, None)), PROBE)
     for indentation in (0.0, 0.003):
         pose = pressed_pose(simulator.phantom, indentation)
         image, labels = simulator.render(pose)
@@ -250,11 +244,11 @@ def test_without_a_load_or_mechanics_every_image_is_the_rigid_worlds(simulator):
         assert simulator.last_deformation is None and rigid.deformation is None
 
 
-def test_an_unloaded_deformable_phantom_images_as_the_rigid_one(simulator):
+def test_an_unloaded_deformable_phantom_images_as_the_rigid_one(simulator, gel_block_spec):
     """No force, no indentation, no pulsation: the deformed path (speckle read at each pixel's
     own tissue point) sees what the rigid one does, up to float32 rounding of the lattice."""
     still = dataclasses.replace(MECHANICS, arterial_pulsation=0.0)
-    unloaded = UltrasoundSimulator(Phantom(straight_vessels_spec(still)), PROBE)
+    unloaded = UltrasoundSimulator(Phantom(straight_vessels_spec(gel_block_spec, still)), PROBE)
     pose = pressed_pose(unloaded.phantom, 0.0)
     image, labels = unloaded.render(pose, TissueLoad(0.0, 0.0))
     rigid_image, rigid_labels = unloaded.render(pose)
