@@ -84,6 +84,12 @@ class FemoralAnatomy:
     the radius."""
     node_seed: float = 0.0
     """Seed (its whole part) of where the nodes lie and how they turn."""
+    muscle_count: float = 0.0
+    """Muscle bellies beside and beneath the vessels (its whole part, like `node_count`)."""
+    muscle_radius: float = 0.010
+    """Typical radius of a belly's cross-section; each is drawn within +-30 % of it."""
+    muscle_seed: float = 0.0
+    """Seed (its whole part) of where the bellies lie and how they run."""
 
 
 def _smoothstep(t: np.ndarray) -> np.ndarray:
@@ -203,6 +209,49 @@ def build_nodes(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> tupl
         points = np.stack([centre - axis, centre + axis])
         nodes.append(VesselSpec(f"node{k}", 0, points, np.full(2, a.node_radius)))
     return tuple(nodes)
+
+
+MUSCLE_GAP = (0.001, 0.010)
+"""Fat between a muscle belly and the vessel pair it lies beside or beneath (m)."""
+MUSCLE_COVER = 0.004
+"""Least depth of a belly's top below the top line (m): under the skin and superficial fat."""
+MUSCLE_DRIFT = 0.15
+"""Largest sideways drift of a belly per metre along the leg: the sartorius crosses the
+femoral triangle obliquely, the iliopsoas and pectineus run nearly along it."""
+
+
+def build_muscles(
+    anatomy: FemoralAnatomy, body: BodySpec, lateral: float
+) -> tuple[VesselSpec, ...]:
+    """Muscle bellies: `muscle_count` straight tubes along the leg, each beside the vessel pair
+    (either side, at the vessels' depth: sartorius, adductor longus) or beneath it (iliopsoas,
+    pectineus), drifting sideways as it runs (`make_subject` leaves out a belly that would
+    touch a vessel). In a transverse image a belly is a large hypoechoic disc with bright
+    fascia at its border: a dark shape as big as a vein that is not one."""
+    from sim.phantom.spec import VesselSpec
+
+    a = anatomy
+    rng = np.random.default_rng([int(a.muscle_seed), 0x3C1E])
+    y = _stations(-body.extent_y / 2, body.extent_y / 2, 2 * CONTROL_STEP)
+    course = _Course(a, lateral, -body.extent_y / 2)
+    middle = (course.artery(y) + course.vein(y)) / 2  # the pair's midline, as it sways and dips
+    reach = a.artery_vein_spacing / 2 + a.cfv_radius + a.vein_wall
+    muscles = []
+    for k in range(int(a.muscle_count)):
+        radius = a.muscle_radius * rng.uniform(0.7, 1.3)
+        gap = rng.uniform(*MUSCLE_GAP)
+        if rng.uniform() < 0.5:  # beside the pair, at its depth
+            offset_x = rng.choice((-1.0, 1.0)) * (reach + gap + radius)
+            offset_depth = rng.uniform(-0.5, 1.0) * radius
+        else:  # beneath it
+            offset_x = rng.uniform(-1.0, 1.0) * a.artery_vein_spacing
+            offset_depth = a.cfv_radius + a.vein_wall + gap + radius
+        drift = rng.uniform(-MUSCLE_DRIFT, MUSCLE_DRIFT)
+        points = middle.copy()
+        points[:, 0] += offset_x + drift * y
+        points[:, 2] = -np.maximum(-middle[:, 2] + offset_depth, radius + MUSCLE_COVER)
+        muscles.append(VesselSpec(f"muscle{k}", 0, points, np.full(len(y), radius)))
+    return tuple(muscles)
 
 
 def build_bones(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> tuple[VesselSpec, ...]:

@@ -1,12 +1,12 @@
 """Phantom specs from YAML files (`assets/phantoms/NAME.yaml` or any path).
 
 A spec gives the body, tissue layers (outermost first; the last one, without a thickness,
-fills the rest), blood/wall/bone materials, and either `anatomy` (parameters of
-`FemoralAnatomy`, from which the femoral vessels and an optional femur are built) or explicit
-`vessels` and `bones` lists (name, label, control_points, radii, wall_thickness); or
-`extends: NAME` and only what differs from that spec. `mechanics`
-(optional) makes the tissue deform under the probe (`TissueMechanics`). `variation` holds the
-subject generator's ranges. Every problem is reported as one ValueError naming the file.
+fills the rest), blood/wall/bone (and lymph node, muscle) materials, and either `anatomy`
+(parameters of `FemoralAnatomy`, from which the femoral vessels, an optional femur, lymph nodes
+and muscle bellies are built) or explicit `vessels` and `bones` lists (name, label,
+control_points, radii, wall_thickness); or `extends: NAME` and only what differs from that spec.
+`mechanics` (optional) makes the tissue deform under the probe (`TissueMechanics`). `variation`
+holds the subject generator's ranges. Every problem is reported as one ValueError naming the file.
 """
 
 from __future__ import annotations
@@ -19,7 +19,13 @@ from typing import Any
 import yaml
 
 from sim.assets import assets_dir
-from sim.phantom.anatomy import FemoralAnatomy, build_bones, build_nodes, build_vessels
+from sim.phantom.anatomy import (
+    FemoralAnatomy,
+    build_bones,
+    build_muscles,
+    build_nodes,
+    build_vessels,
+)
 from sim.phantom.mechanics import TissueMechanics
 from sim.phantom.spec import (
     DEFAULT_TEXTURE_SCALE,
@@ -37,7 +43,8 @@ ANATOMY_KEYS = tuple(f.name for f in dataclasses.fields(FemoralAnatomy))
 MECHANICS_KEYS = TissueMechanics.keys()
 TOP_KEYS = {
     "name", "description", "side", "seed", "noise_level", "body", "layers", "blood", "wall",
-    "bone", "node", "anatomy", "vessels", "bones", "variation", "texture_scale", "mechanics",
+    "bone", "node", "muscle", "anatomy", "vessels", "bones", "variation", "texture_scale",
+    "mechanics",
 }  # fmt: skip
 MATERIAL_KEYS = ("name", "echogenicity", "attenuation_db_cm_mhz", "impedance_mrayl")
 TEXTURE_KEYS = ("texture_variation", "texture_ridges")
@@ -162,10 +169,11 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         vessels = build_vessels(anatomy, body, lateral)
         bones = build_bones(anatomy, body, lateral)
         nodes = build_nodes(anatomy, body, lateral)
+        muscles = build_muscles(anatomy, body, lateral)
     else:
-        nodes = ()
+        nodes, muscles = (), ()
         vessels, bones = _tubes(data["vessels"], "vessels"), _tubes(data.get("bones", []), "bones")
-    bone, node = data.get("bone"), data.get("node")
+    bone, node, muscle = data.get("bone"), data.get("node"), data.get("muscle")
     return PhantomSpec(
         name=str(data["name"]),
         side=side,
@@ -178,6 +186,8 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         bones=bones,
         node=None if node is None else _material(node, "node"),
         nodes=nodes,
+        muscle=None if muscle is None else _material(muscle, "muscle"),
+        muscles=muscles,
         noise_level=float(data.get("noise_level", 0.2)),
         texture_scale=_texture_scale(data.get("texture_scale", list(DEFAULT_TEXTURE_SCALE))),
         seed=int(data.get("seed", 0)),

@@ -16,7 +16,7 @@ from sim.phantom import body as body_shape
 from sim.phantom.centreline import SegmentChain, sample_tube
 from sim.phantom.meshing import body_mesh, tube_mesh
 from sim.phantom.sample_kernels import label_points, sample_points
-from sim.phantom.spec import ARTERY, VEIN, Material, PhantomSpec
+from sim.phantom.spec import ARTERY, VEIN, Material, PhantomSpec, VesselSpec
 from sim.phantom.tube_index import DEFAULT_CELL_SIZE, TubeIndex
 
 VESSEL_SEARCH_RADIUS = 5.0e-3
@@ -72,10 +72,12 @@ class Phantom:
         self.cell_size = cell_size
         bone = () if spec.bone is None else (spec.bone,)
         node = () if spec.node is None else (spec.node,)
-        self.materials: tuple[Material, ...] = (*spec.layers, spec.blood, *bone, *node)
+        muscle = () if spec.muscle is None else (spec.muscle,)
+        self.materials: tuple[Material, ...] = (*spec.layers, spec.blood, *bone, *node, *muscle)
         self._blood_index = len(spec.layers)
         self._bone_index = len(spec.layers) + 1 if bone else -1
         self._node_index = len(spec.layers) + 1 + len(bone) if node else -1
+        self._muscle_index = len(spec.layers) + 1 + len(bone) + len(node) if muscle else -1
         self._body_kind, self._body_params = body_shape.body_parameters(spec.body)
         self._layer_bottoms = np.cumsum([layer.thickness for layer in spec.layers[:-1]])
 
@@ -84,15 +86,23 @@ class Phantom:
         chain = SegmentChain.from_tubes(self.spec.vessels, list(range(len(self.spec.vessels))))
         return TubeIndex.build(chain, VESSEL_SEARCH_RADIUS, self.cell_size)
 
-    @cached_property
-    def _bone_index_grid(self) -> TubeIndex:
-        chain = SegmentChain.from_tubes(self.spec.bones, list(range(len(self.spec.bones))))
+    def _inside_index(self, tubes: tuple[VesselSpec, ...]) -> TubeIndex:
+        """An index that tells only whether a point is inside one of `tubes` (no search
+        radius: nothing needs the distance to a bone, node or muscle)."""
+        chain = SegmentChain.from_tubes(tubes, list(range(len(tubes))))
         return TubeIndex.build(chain, 0.0, self.cell_size)
 
     @cached_property
+    def _bone_index_grid(self) -> TubeIndex:
+        return self._inside_index(self.spec.bones)
+
+    @cached_property
     def _node_index_grid(self) -> TubeIndex:
-        chain = SegmentChain.from_tubes(self.spec.nodes, list(range(len(self.spec.nodes))))
-        return TubeIndex.build(chain, 0.0, self.cell_size)
+        return self._inside_index(self.spec.nodes)
+
+    @cached_property
+    def _muscle_index_grid(self) -> TubeIndex:
+        return self._inside_index(self.spec.muscles)
 
     @cached_property
     def _class_indexes(self) -> dict[str, TubeIndex]:
@@ -135,7 +145,8 @@ class Phantom:
             out = TissueSample.empty(len(points))
         elif len(out) != len(points):
             raise ValueError(f"out holds {len(out)} points but {len(points)} were given")
-        vessels, bones, nodes = self._vessel_index, self._bone_index_grid, self._node_index_grid
+        vessels, bones = self._vessel_index, self._bone_index_grid
+        nodes, muscles = self._node_index_grid, self._muscle_index_grid
         sample_points(
             points,
             self._body_kind,
@@ -144,6 +155,7 @@ class Phantom:
             self._blood_index,
             self._bone_index,
             self._node_index,
+            self._muscle_index,
             vessels.kernel_grid(),
             vessels.chain.tube,
             vessels.chain.label,
@@ -152,6 +164,8 @@ class Phantom:
             np.ones(len(bones.chain), np.uint8),
             nodes.kernel_grid(),
             np.ones(len(nodes.chain), np.uint8),
+            muscles.kernel_grid(),
+            np.ones(len(muscles.chain), np.uint8),
             out.label,
             out.material,
             out.depth,

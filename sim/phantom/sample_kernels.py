@@ -56,6 +56,7 @@ def sample_points(
     blood_index,
     bone_index,
     node_index,
+    muscle_index,
     vessels,
     segment_tube,
     segment_label,
@@ -64,6 +65,8 @@ def sample_points(
     bone_label,
     nodes,
     node_label,
+    muscles,
+    muscle_label,
     label,
     material,
     depth,
@@ -73,9 +76,10 @@ def sample_points(
 ):
     """Everything the ultrasound needs per point, written into the output arrays.
 
-    `vessels`, `bones` and `nodes` are `tube_kernels.Grid`s; the vessels' within `cutoff`.
-    A point in a vessel's lumen is blood, else in bone bone, else in a lymph node node, else
-    the layer at its depth (a material index of -1 means none of that kind exists).
+    `vessels`, `bones`, `nodes` and `muscles` are `tube_kernels.Grid`s; the vessels' within
+    `cutoff`. A point in a vessel's lumen is blood, else in bone bone, else in a lymph node node,
+    else in a muscle belly muscle, else the layer at its depth (a material index of -1 means
+    none of that kind exists).
     """
     for p in prange(points.shape[0]):
         x, y, z = points[p, 0], points[p, 1], points[p, 2]
@@ -106,3 +110,5 @@ def sample_points(
                     material[p] = bone_index
                 elif node_index >= 0 and inside_label(x, y, z, nodes, node_label) > 0:
                     material[p] = node_index
+                elif muscle_index >= 0 and inside_label(x, y, z, muscles, muscle_label) > 0:
+                    material[p] = muscle_index

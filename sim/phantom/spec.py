@@ -102,8 +102,8 @@ class VesselSpec:
 
     The spline is scipy's `CubicSpline` (not-a-knot ends) over the cumulative chord length of the
     control points; the radius is interpolated linearly in that parameter. `label` is 1 (artery)
-    or 2 (vein); bones and lymph nodes use label 0. `wall_thickness` is the echogenic wall
-    outside the lumen.
+    or 2 (vein); bones, lymph nodes and muscle bellies use label 0. `wall_thickness` is the
+    echogenic wall outside the lumen.
     """
 
     name: str
@@ -171,6 +171,10 @@ class PhantomSpec:
     node: Material | None = None
     """Lymph node cortex (hypoechoic); its tubes carry label 0, like bones."""
     nodes: tuple[VesselSpec, ...] = ()
+    muscle: Material | None = None
+    """Skeletal muscle (hypoechoic, with bright perimysium); its bellies carry label 0."""
+    muscles: tuple[VesselSpec, ...] = ()
+    """Muscle bellies beside and beneath the vessels: large dark shapes that are not vessels."""
     noise_level: float = 0.2
     texture_scale: tuple[float, float, float] = DEFAULT_TEXTURE_SCALE
     """Lattice spacing (m) of the texture fields along x, y, z: lobules and fascicles are
@@ -196,6 +200,8 @@ class PhantomSpec:
             raise ValueError("bones are given but no bone material")
         if self.nodes and self.node is None:
             raise ValueError("lymph nodes are given but no node material")
+        if self.muscles and self.muscle is None:
+            raise ValueError("muscle bellies are given but no muscle material")
         if not self.noise_level >= 0:
             raise ValueError(f"noise_level must be >= 0, got {self.noise_level}")
         if len(self.texture_scale) != 3 or not min(self.texture_scale) > 0:

@@ -4,8 +4,9 @@ Subject k draws every quantity in `spec.variation.ranges` uniformly, from a gene
 by `(spec.seed, k)`, rebuilds the vessels, and keeps the draw only if the vessels fit: artery
 and vein walls at least `min_gap` apart, vessels clear of the bone, and covered by at least
 `min_gap` of tissue inside the body. Otherwise it draws again (same generator), so subject k
-is always the same phantom. Lymph nodes closer than `min_gap` to a vessel are left out. The
-tissue mechanics' ranges are drawn from a generator of their own.
+is always the same phantom. Lymph nodes and muscle bellies closer than `min_gap` to a vessel
+are left out. The tissue mechanics' ranges and the muscle bellies' are each drawn from a
+generator of their own, so that adding them kept every earlier subject's anatomy.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.phantom.anatomy import build_bones, build_nodes, build_vessels
+from sim.phantom.anatomy import build_bones, build_muscles, build_nodes, build_vessels
 from sim.phantom.centreline import SegmentChain, TubeSamples, sample_tube
 from sim.phantom.mechanics import TissueMechanics
 from sim.phantom.spec import ARTERY, VEIN, BodySpec, PhantomSpec, VesselSpec
@@ -91,18 +92,28 @@ def vessels_fit(
 MECHANICS_STREAM = 1
 """Mixed into the seed of the generator that draws a subject's mechanics, so that drawing
 them never shifts the anatomy's draws (adding mechanics kept every subject's anatomy)."""
+MUSCLE_STREAM = 2
+"""Likewise for the muscle bellies (adding them kept every subject's vessels)."""
+MUSCLE_KEYS = ("muscle_count", "muscle_radius", "muscle_seed")
+"""The `FemoralAnatomy` parameters drawn from the muscle stream."""
+
+
+def _stream_draws(
+    spec: PhantomSpec, subject: int, names: set[str] | tuple[str, ...], stream: int
+) -> dict[str, float]:
+    """The subject's draws of the varied quantities in `names`, from generator `stream`."""
+    rng = np.random.default_rng([spec.seed, subject, stream])
+    return {
+        key: float(rng.uniform(low, high))
+        for key, (low, high) in sorted(spec.variation.ranges.items())
+        if key in names
+    }
 
 
 def _subject_mechanics(spec: PhantomSpec, subject: int) -> TissueMechanics:
     """The subject's tissue mechanics: the spec's, with each varied parameter drawn."""
     assert spec.mechanics is not None
-    rng = np.random.default_rng([spec.seed, subject, MECHANICS_STREAM])
-    mechanics_names = TissueMechanics.keys()
-    draws = {
-        key: float(rng.uniform(low, high))
-        for key, (low, high) in sorted(spec.variation.ranges.items())
-        if key in mechanics_names
-    }
+    draws = _stream_draws(spec, subject, TissueMechanics.keys(), MECHANICS_STREAM)
     return dataclasses.replace(spec.mechanics, **draws)
 
 
@@ -115,8 +126,8 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
     if subject < 0:
         raise ValueError(f"subject must be >= 0, got {subject}")
     variation = spec.variation
-    mechanics_names = set(TissueMechanics.keys())
-    ranges = dict(sorted(i for i in variation.ranges.items() if i[0] not in mechanics_names))
+    own_streams = {*TissueMechanics.keys(), *MUSCLE_KEYS}
+    ranges = dict(sorted(i for i in variation.ranges.items() if i[0] not in own_streams))
     rng = np.random.default_rng([spec.seed, subject])
     anatomy_names = {f.name for f in dataclasses.fields(spec.anatomy)}
     for _ in range(variation.max_attempts):
@@ -140,10 +151,16 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
             f"phantom {spec.name!r}: no subject {subject} fits in {variation.max_attempts} "
             "draws; narrow the variation ranges"
         )
-    nodes = tuple(  # a node in a vessel's way is left out, not drawn again: no bias on vessels
-        node
-        for node in build_nodes(anatomy, spec.body, spec.lateral_sign)
-        if vessels_fit(vessels, (node,), spec.body, variation.min_gap)
+    anatomy = dataclasses.replace(
+        anatomy, **_stream_draws(spec, subject, MUSCLE_KEYS, MUSCLE_STREAM)
+    )
+    nodes, muscles = (  # one in a vessel's way is left out, not drawn again: no bias on vessels
+        tuple(
+            tube
+            for tube in build(anatomy, spec.body, spec.lateral_sign)
+            if vessels_fit(vessels, (tube,), spec.body, variation.min_gap)
+        )
+        for build in (build_nodes, build_muscles)
     )
     layers = tuple(
         dataclasses.replace(
@@ -162,6 +179,7 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
         vessels=vessels,
         bones=bones,
         nodes=nodes,
+        muscles=muscles,
         anatomy=anatomy,
         noise_level=float(draws.get("noise_level", spec.noise_level)),
         subject=subject,

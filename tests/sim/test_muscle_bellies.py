@@ -1,0 +1,98 @@
+"""Muscle bellies of the femoral subjects: where the spline tube is, the phantom is muscle
+(label 0); they keep clear of the vessels; adding them moved no subject's vessels."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.interpolate import CubicSpline
+
+from sim.phantom import Phantom, load_phantom
+from sim.phantom.spec import PhantomSpec, VesselSpec
+from sim.phantom.subjects import MUSCLE_KEYS, make_subject
+
+
+def centreline(tube: VesselSpec, count: int = 4000) -> np.ndarray:
+    """The tube's centreline as the spec defines it: scipy's not-a-knot cubic spline over the
+    control points' cumulative chord length, sampled densely."""
+    points = tube.control_points
+    chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+    return CubicSpline(chord, points, bc_type="not-a-knot")(np.linspace(0, chord[-1], count))
+
+
+def distance_to(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
+    """Distance of each point to the nearest sample of `curve`."""
+    return np.array([np.linalg.norm(curve - p, axis=1).min() for p in points])
+
+
+@pytest.fixture(scope="module")
+def subjects() -> list[PhantomSpec]:
+    nominal = load_phantom("femoral")
+    return [make_subject(nominal, k) for k in range(8)]
+
+
+def test_the_nominal_femoral_phantom_has_no_bellies_and_subjects_have_some(subjects) -> None:
+    assert load_phantom("femoral").muscles == ()
+    counts = [len(s.muscles) for s in subjects]
+    assert sum(counts) >= 4 and min(counts) == 0  # drawn 0 to 5, those in the way left out
+
+
+def test_points_in_a_belly_are_muscle_and_label_nothing(subjects) -> None:
+    subject = next(s for s in subjects if s.muscles)
+    phantom = Phantom(subject)
+    names = [m.name for m in phantom.materials]
+    muscle = names.index("muscle")
+    # bone and lymph nodes win over muscle where they overlap a belly
+    overriding = {names.index("cortical bone"), names.index("lymph node")}
+    curves = [centreline(belly) for belly in subject.muscles]
+    rng = np.random.default_rng(5)
+    for belly, curve in zip(subject.muscles, curves, strict=True):
+        radius = float(belly.radii[0])
+        middle = curve[len(curve) // 2]
+        points = middle + rng.uniform(-1.6, 1.6, (3000, 3)) * [radius, 4 * radius, radius]
+        radii = [float(b.radii[0]) for b in subject.muscles]
+        signed = np.min(  # bellies may touch one another: inside any is muscle
+            [distance_to(points, c) - r for c, r in zip(curves, radii, strict=True)], axis=0
+        )
+        clear = np.abs(signed) > 2e-4  # the tube is a chain of round cones: keep off the surface
+        sample = phantom.sample(points[clear])
+        inside = signed[clear] < 0
+        assert inside.sum() > 300 and (~inside).sum() > 300
+        assert (sample.label[inside] == 0).all()
+        kept = ~np.isin(sample.material[inside], list(overriding))
+        assert kept.mean() > 0.8 and (sample.material[inside][kept] == muscle).all()
+        assert (sample.material[~inside] != muscle).all()
+
+
+def test_bellies_keep_min_gap_from_every_vessel_wall(subjects) -> None:
+    for subject in subjects:
+        gap = subject.variation.min_gap
+        for belly in subject.muscles:
+            curve = centreline(belly, 800)
+            for vessel in subject.vessels:
+                reach = float(vessel.radii.max()) + vessel.wall_thickness + float(belly.radii[0])
+                nearest = distance_to(centreline(vessel, 400), curve).min()
+                assert nearest - reach >= gap - 2e-4, (subject.name, belly.name, vessel.name)
+
+
+def test_drawing_the_bellies_moved_no_vessel_node_or_layer(subjects) -> None:
+    """The bellies' quantities come from a generator of their own: a phantom without their
+    ranges gives the same subjects, less the bellies."""
+    nominal = load_phantom("femoral")
+    ranges = {k: v for k, v in nominal.variation.ranges.items() if k not in MUSCLE_KEYS}
+    without = dataclasses.replace(
+        nominal, variation=dataclasses.replace(nominal.variation, ranges=ranges)
+    )
+    for k, subject in enumerate(subjects):
+        other = make_subject(without, k)
+        assert other.muscles == ()
+        assert other.vessels == subject.vessels and other.nodes == subject.nodes
+        assert other.layers == subject.layers and other.mechanics == subject.mechanics
+
+
+def test_bellies_need_a_muscle_material(subjects) -> None:
+    subject = next(s for s in subjects if s.muscles)
+    with pytest.raises(ValueError, match="muscle bellies are given but no muscle material"):
+        dataclasses.replace(subject, muscle=None)
