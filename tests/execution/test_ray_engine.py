@@ -7,7 +7,6 @@ executor does: 127.0.0.1 only, no dashboard) and every `RayExecutor` here joins 
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import sys
@@ -16,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cli_runner import run_main
+from tiny_experiment import TINY
 
-from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
 from resus.execution import (
     RayExecutor,
@@ -28,10 +27,7 @@ from resus.execution import (
     run_pending,
     start_local_ray,
 )
-from resus.experiments.data import ScanSettings
-from resus.experiments.tables import EXPERIMENT_PRESETS, ExperimentPreset
-from resus.reslicing.reslice import ResliceSettings
-from resus.segmentation.presets import QUICK, ModelConfig
+from resus.experiments.tables import EXPERIMENT_PRESETS
 from resus.sweep.io import read_sweep
 
 ray = pytest.importorskip("ray")
@@ -159,28 +155,7 @@ def test_simulate_subjects_writes_the_same_sweeps_on_ray(monkeypatch, capsys, tm
 
 # `experiment subjects --preset quick` takes minutes a run on 2 cores: this test runs the same
 # command on a test-only preset, "tiny" (48 x 48 frames, 2 cm sweeps at 8 frames/s, the
-# smallest U-Net for one epoch), 3 subjects, regimes us and resus: 6 training units.
-TINY_SWEEP = LinearPattern(length=0.02, speed=0.01, frame_rate=8.0)
-TINY = ExperimentPreset(
-    name="tiny",
-    training=dataclasses.replace(
-        QUICK,
-        model=ModelConfig(
-            encoder_name="resnet18", encoder_depth=3, decoder_channels=(16, 8, 4), image_size=48
-        ),
-        max_epochs=1,
-    ),
-    scans=ScanSettings(
-        cols=48,
-        rows=48,
-        sweep=TINY_SWEEP,
-        spacing=1.0e-3,
-        reslice=ResliceSettings(angles_deg=(-20.0, 0.0, 20.0), step=6, size=48),
-    ),
-    subjects=(0, 1, 2),
-    phantom_scans=(TINY_SWEEP, dataclasses.replace(TINY_SWEEP, start=(0.003, -0.035))),
-    repeats=2,
-)
+# smallest U-Net for one epoch; tests/tiny_experiment.py), 3 subjects, regimes us and resus.
 ENVIRONMENT = ("executor", "command", "data_folder", "seconds")
 """results.json entries that say how and where a run went, not what it found."""
 
