@@ -12,9 +12,11 @@ import os
 import sys
 from pathlib import Path
 
+import executor_units
 import numpy as np
 import pytest
 from cli_runner import run_main
+from executor_units import count_and_square, granted, refuse
 from tiny_experiment import TINY
 
 from resus.errors import ResusError
@@ -22,7 +24,6 @@ from resus.execution import (
     RayExecutor,
     Resources,
     UnitRecord,
-    granted_cpus,
     make_executor,
     run_pending,
     start_local_ray,
@@ -35,23 +36,16 @@ ray = pytest.importorskip("ray")
 
 @pytest.fixture(scope="module", autouse=True)
 def local_ray():
-    """One Ray of 2 CPUs for the module; this module's units travel by value (its workers
-    cannot import a test module by name)."""
-    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    """One Ray of 2 CPUs for the module; the units of this module and of `executor_units`
+    travel by value (its workers cannot import test modules by name)."""
+    unit_modules = (sys.modules[__name__], executor_units)
+    for module in unit_modules:
+        ray.cloudpickle.register_pickle_by_value(module)
     start_local_ray(2)
     yield
     ray.shutdown()
-    ray.cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
-
-
-def granted(_: object) -> int | None:
-    return granted_cpus()
-
-
-def refuse(item: int) -> int:
-    if item < 0:
-        raise ResusError(f"item {item} is negative")
-    return item
+    for module in unit_modules:
+        ray.cloudpickle.unregister_pickle_by_value(module)
 
 
 def die_once(marker: str) -> int:
@@ -92,16 +86,6 @@ def test_a_killed_worker_has_its_unit_retried(tmp_path):
     pids = RayExecutor(2).map(die_once, markers, "t", "x", progress=False)
     assert all(Path(marker).exists() for marker in markers)  # each first run died
     assert all(pid != os.getpid() for pid in pids)
-
-
-def count_and_square(job: tuple[int, str]) -> int:
-    """Fails while a 'fail' file exists for item 2; counts every finished run in a file."""
-    item, folder = job
-    if item == 2 and (Path(folder) / "fail").exists():
-        raise ResusError("unit 2 failed")
-    with open(Path(folder) / f"ran_{item}", "a") as runs:
-        runs.write("ran\n")
-    return item * item
 
 
 def test_a_resumed_ray_run_recomputes_nothing_that_finished(tmp_path):
