@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from types import TracebackType
-from typing import TypeVar
+from typing import Any, TypeVar
+
+from tqdm import tqdm
 
 from resus.errors import ResusError
 
@@ -71,6 +73,11 @@ def limit_numba_threads() -> None:
         numba.set_num_threads(max(1, min(threads, cpus)))
 
 
+class WorkerLost(Exception):
+    """An engine lost the worker under a unit (killed, out of memory, a node gone): not the
+    unit's own error. `Executor.map` reports it as a ResusError that says how to resume."""
+
+
 class Executor(ABC):
     """Runs `function(item)` for every item and returns the results in the items' order.
 
@@ -78,11 +85,13 @@ class Executor(ABC):
     block ends. `function` must be importable by name (defined at a module's top level), and
     items and results picklable; a unit's exception is raised here, after the units that were
     already running have finished or been cancelled.
+
+    An engine says only how units run (`_finished`) and what it readies first (`_prepare`);
+    the progress bar, the order of the results and the resume message are the same for all.
     """
 
     name: str
 
-    @abstractmethod
     def map(
         self,
         function: Callable[[Item], Result],
@@ -93,7 +102,33 @@ class Executor(ABC):
         progress: bool = True,
     ) -> list[Result]:
         """`function(item)` for every item, each with `resources`, one progress bar
-        (`desc`, counting `unit`s); the results in order."""
+        (`desc`, counting `unit`s); the results in order. No items: no bar, no engine work."""
+        if not items:
+            return []
+        self._prepare(resources, desc)
+        results: list[Any] = [None] * len(items)
+        with tqdm(total=len(items), desc=desc, unit=unit, disable=not progress) as bar:
+            try:
+                for index, result in self._finished(function, items, resources):
+                    results[index] = result
+                    bar.update()
+            except WorkerLost as lost:
+                raise ResusError(
+                    f"{desc}: {lost}; finished units are kept, run again to resume"
+                ) from None
+        return results
+
+    @abstractmethod
+    def _prepare(self, resources: Resources, desc: str) -> None:
+        """Before a map's units start: ready the engine, and refuse units it can never run
+        (a ResusError naming the map, `desc`)."""
+
+    @abstractmethod
+    def _finished(
+        self, function: Callable[[Item], Result], items: Sequence[Item], resources: Resources
+    ) -> Iterator[tuple[int, Result]]:
+        """Run the units; yield each one's index and result as it finishes. A unit's own
+        exception propagates as raised; a worker lost under a unit is a `WorkerLost`."""
 
     @abstractmethod
     def describe(self) -> str:

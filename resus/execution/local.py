@@ -9,15 +9,12 @@ with a ResusError; units that finished before it keep their outputs, so a rerun 
 from __future__ import annotations
 
 import multiprocessing
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from typing import TypeVar
 
-from tqdm import tqdm
-
-from resus.errors import ResusError
-from resus.execution.executor import ONE_CPU, Executor, Resources, grant_cpus
+from resus.execution.executor import ONE_CPU, Executor, Resources, WorkerLost, grant_cpus
 from resus.workers import available_cores
 
 Item = TypeVar("Item")
@@ -42,39 +39,28 @@ class LocalExecutor(Executor):
         """Processes a map of `units` units with `resources` each uses (1: this process)."""
         return max(1, min(units, self.jobs // resources.cpus))
 
-    def map(
-        self,
-        function: Callable[[Item], Result],
-        items: Sequence[Item],
-        desc: str,
-        unit: str,
-        resources: Resources = ONE_CPU,
-        progress: bool = True,
-    ) -> list[Result]:
-        bar = tqdm(total=len(items), desc=desc, unit=unit, disable=not progress)
-        with bar:
-            workers = self.workers(len(items), resources)
-            if workers == 1:
-                results = []
-                for item in items:
-                    results.append(function(item))
-                    bar.update()
-                return results
-            # each worker gets an equal share of this machine's cores, at least the unit's own
-            share = max(resources.cpus, available_cores() // workers)
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(workers, context, grant_cpus, (share,)) as pool:
-                futures = [pool.submit(function, item) for item in items]
-                try:
-                    for future in as_completed(futures):
-                        future.result()  # the first failure ends the map
-                        bar.update()
-                except BrokenProcessPool:
-                    raise ResusError(
-                        f"{desc}: a worker process died (killed, or out of memory); finished "
-                        "units are kept, run again to resume"
-                    ) from None
-                finally:
-                    for future in futures:
-                        future.cancel()  # those not started yet; running ones finish
-                return [future.result() for future in futures]
+    def _prepare(self, resources: Resources, desc: str) -> None:
+        """Nothing to ready: each map spawns its own workers, and `workers` fits any unit."""
+
+    def _finished(
+        self, function: Callable[[Item], Result], items: Sequence[Item], resources: Resources
+    ) -> Iterator[tuple[int, Result]]:
+        """In this process, in order, when one worker would run; else in spawned workers."""
+        workers = self.workers(len(items), resources)
+        if workers == 1:
+            for index, item in enumerate(items):
+                yield index, function(item)
+            return
+        # each worker gets an equal share of this machine's cores, at least the unit's own
+        share = max(resources.cpus, available_cores() // workers)
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(workers, context, grant_cpus, (share,)) as pool:
+            futures = {pool.submit(function, item): index for index, item in enumerate(items)}
+            try:
+                for future in as_completed(futures):
+                    yield futures[future], future.result()  # the first failure ends the map
+            except BrokenProcessPool:
+                raise WorkerLost("a worker process died (killed, or out of memory)") from None
+            finally:
+                for future in futures:
+                    future.cancel()  # those not started yet; running ones finish

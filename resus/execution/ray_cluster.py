@@ -21,10 +21,8 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
-from tqdm import tqdm
-
 from resus.errors import ResusError
-from resus.execution.executor import ONE_CPU, Executor, Resources, grant_cpus
+from resus.execution.executor import Executor, Resources, WorkerLost, grant_cpus
 
 Item = TypeVar("Item")
 Result = TypeVar("Result")
@@ -144,39 +142,33 @@ class RayExecutor(Executor):
             ray.shutdown()
             self._started = False
 
-    def map(
-        self,
-        function: Callable[[Item], Result],
-        items: Sequence[Item],
-        desc: str,
-        unit: str,
-        resources: Resources = ONE_CPU,
-        progress: bool = True,
-    ) -> list[Result]:
+    def _prepare(self, resources: Resources, desc: str) -> None:
+        """Join (or start) the Ray, and refuse units no node of it can run."""
         import ray
 
-        if not items:
-            return []
         self._connect()
         _check_feasible(resources, ray.cluster_resources(), desc)
+
+    def _finished(
+        self, function: Callable[[Item], Result], items: Sequence[Item], resources: Resources
+    ) -> Iterator[tuple[int, Result]]:
+        """One Ray task a unit; those still pending are cancelled when the map ends early."""
+        import ray
+
         task = ray.remote(_run_unit).options(
             num_cpus=resources.cpus, num_gpus=resources.gpus, max_retries=RETRIES
         )
         pending = [task.remote(function, item, resources.cpus) for item in items]
         order = {ref: index for index, ref in enumerate(pending)}
-        results: list[Any] = [None] * len(items)
-        with tqdm(total=len(items), desc=desc, unit=unit, disable=not progress) as bar:
-            try:
-                while pending:
-                    done, pending = ray.wait(pending, num_returns=1)
-                    for ref in done:
-                        results[order[ref]] = _result(ref, desc)
-                        bar.update()
-            except BaseException:
-                for ref in pending:
-                    ray.cancel(ref)
-                raise
-        return results
+        try:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                for ref in done:
+                    yield order[ref], _result(ref)
+        except BaseException:
+            for ref in pending:
+                ray.cancel(ref)
+            raise
 
 
 def _check_feasible(resources: Resources, cluster: dict[str, float], desc: str) -> None:
@@ -189,9 +181,9 @@ def _check_feasible(resources: Resources, cluster: dict[str, float], desc: str) 
             )
 
 
-def _result(ref: Any, desc: str) -> Any:
+def _result(ref: Any) -> Any:
     """A finished unit's result; its ResusError as raised in the worker, a worker lost more
-    often than Ray retries as a ResusError."""
+    often than Ray retries as a WorkerLost."""
     import ray
     from ray.exceptions import RayError, RayTaskError
 
@@ -202,7 +194,6 @@ def _result(ref: Any, desc: str) -> Any:
             raise error.cause from None
         raise
     except RayError as error:
-        raise ResusError(
-            f"{desc}: a unit's Ray worker or node was lost {RETRIES + 1} times "
-            f"({type(error).__name__}); finished units are kept, run again to resume"
+        raise WorkerLost(
+            f"a unit's Ray worker or node was lost {RETRIES + 1} times ({type(error).__name__})"
         ) from None

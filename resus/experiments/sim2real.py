@@ -41,7 +41,7 @@ from resus.execution import Executor, Resources, make_executor
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.evaluate import Evaluation, score_labels
 from resus.segmentation.folders import FolderImages
-from resus.segmentation.presets import TrainingPreset, get_preset
+from resus.segmentation.presets import TrainingPreset, get_preset, pick_preset
 from resus.segmentation.trained_model import TrainedModel
 
 SCHEMA = "resus.sim2real/1"
@@ -190,10 +190,8 @@ idle cores); `paper`: 24 subjects at the paper's 256 px ResNet34 U-Net, 5 splits
 
 
 def get_sim2real_preset(name: str) -> Sim2RealSettings:
-    """The preset called `name`, or a ResusError listing the choices."""
-    if name not in SIM2REAL_PRESETS:
-        raise ResusError(f"unknown preset {name!r}; choose one of {', '.join(SIM2REAL_PRESETS)}")
-    return SIM2REAL_PRESETS[name]
+    """The sim-to-real preset called `name`, or a ResusError listing the choices."""
+    return pick_preset(SIM2REAL_PRESETS, name)
 
 
 # ---- splits and the curve ----------------------------------------------------------------

@@ -64,7 +64,7 @@ from resus.experiments.training_units import (
 )
 from resus.reslicing.reslice import ResliceSettings
 from resus.segmentation.metrics import VesselIoU
-from resus.segmentation.presets import PAPER, QUICK, TrainingPreset
+from resus.segmentation.presets import PAPER, QUICK, TrainingPreset, pick_preset
 from resus.workers import available_cores
 from sim.labels import ARTERY, VEIN
 
@@ -167,9 +167,7 @@ EXPERIMENT_PRESETS = {p.name: p for p in (QUICK_EXPERIMENT, PAPER_EXPERIMENT)}
 
 def get_experiment_preset(name: str) -> ExperimentPreset:
     """The experiment preset called `name`, or a ResusError listing the choices."""
-    if name not in EXPERIMENT_PRESETS:
-        raise ResusError(f"unknown preset {name!r}; choose one of {', '.join(EXPERIMENT_PRESETS)}")
-    return EXPERIMENT_PRESETS[name]
+    return pick_preset(EXPERIMENT_PRESETS, name)
 
 
 @dataclass(frozen=True)

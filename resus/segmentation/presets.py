@@ -7,10 +7,14 @@ that trains at about 200 images/s on a 2-core CPU; tests and the demo use it.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
+from typing import TypeVar
 
 from resus.errors import ResusError
 from sim.labels import LABEL_NAMES
+
+Preset = TypeVar("Preset")
 
 
 @dataclass(frozen=True)
@@ -173,8 +177,14 @@ PAPER = TrainingPreset(name="paper", model=ModelConfig())
 PRESETS: dict[str, TrainingPreset] = {preset.name: preset for preset in (QUICK, CPU128, PAPER)}
 
 
+def pick_preset(presets: Mapping[str, Preset], name: str) -> Preset:
+    """The preset called `name` in `presets`, or a ResusError listing the choices: one lookup
+    for every table of presets (training, experiments, sim-to-real), so all refuse alike."""
+    if name not in presets:
+        raise ResusError(f"unknown preset {name!r}; choose one of {', '.join(presets)}")
+    return presets[name]
+
+
 def get_preset(name: str) -> TrainingPreset:
-    """The preset called `name`, or a ResusError listing the choices."""
-    if name not in PRESETS:
-        raise ResusError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
-    return PRESETS[name]
+    """The training preset called `name`, or a ResusError listing the choices."""
+    return pick_preset(PRESETS, name)

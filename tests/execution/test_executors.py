@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from cli_runner import free_port
+from executor_units import count_and_square, granted, refuse
 
 from resus.errors import ResusError
 from resus.execution import (
@@ -20,23 +21,10 @@ from resus.execution import (
     RayExecutor,
     Resources,
     UnitRecord,
-    granted_cpus,
     make_executor,
     run_pending,
 )
 from resus.workers import available_cores
-
-
-def granted(_: object) -> int | None:
-    """A unit that reports the cores its engine granted it."""
-    return granted_cpus()
-
-
-def refuse(item: int) -> int:
-    """A unit that fails on a negative item."""
-    if item < 0:
-        raise ResusError(f"item {item} is negative")
-    return item
 
 
 def die(_: object) -> None:
@@ -108,16 +96,6 @@ def test_a_record_counts_only_with_its_settings_and_its_outputs(tmp_path):
     assert json.loads(record.path.read_text())["key"] == {"size": [1, 2]}
     assert not UnitRecord(record.path, {"size": (1, 3)}, (output,)).done()
     assert list(record.path.parent.iterdir()) == [record.path]  # no temporary file left
-
-
-def count_and_square(job: tuple[int, str]) -> int:
-    """A unit that fails while a 'fail' file exists, else counts its runs in a file of its own."""
-    item, folder = job
-    if item == 2 and (Path(folder) / "fail").exists():
-        raise ResusError("unit 2 failed")
-    with open(Path(folder) / f"ran_{item}", "a") as runs:
-        runs.write("ran\n")
-    return item * item
 
 
 def runs_of(folder: Path, item: int) -> int:

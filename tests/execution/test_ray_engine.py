@@ -7,31 +7,28 @@ executor does: 127.0.0.1 only, no dashboard) and every `RayExecutor` here joins 
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import sys
 from pathlib import Path
 
+import executor_units
 import numpy as np
 import pytest
 from cli_runner import run_main
+from executor_units import count_and_square, granted, refuse
+from tiny_experiment import TINY
 
-from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
 from resus.execution import (
     RayExecutor,
     Resources,
     UnitRecord,
-    granted_cpus,
     make_executor,
     run_pending,
     start_local_ray,
 )
-from resus.experiments.data import ScanSettings
-from resus.experiments.tables import EXPERIMENT_PRESETS, ExperimentPreset
-from resus.reslicing.reslice import ResliceSettings
-from resus.segmentation.presets import QUICK, ModelConfig
+from resus.experiments.tables import EXPERIMENT_PRESETS
 from resus.sweep.io import read_sweep
 
 ray = pytest.importorskip("ray")
@@ -39,23 +36,16 @@ ray = pytest.importorskip("ray")
 
 @pytest.fixture(scope="module", autouse=True)
 def local_ray():
-    """One Ray of 2 CPUs for the module; this module's units travel by value (its workers
-    cannot import a test module by name)."""
-    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    """One Ray of 2 CPUs for the module; the units of this module and of `executor_units`
+    travel by value (its workers cannot import test modules by name)."""
+    unit_modules = (sys.modules[__name__], executor_units)
+    for module in unit_modules:
+        ray.cloudpickle.register_pickle_by_value(module)
     start_local_ray(2)
     yield
     ray.shutdown()
-    ray.cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
-
-
-def granted(_: object) -> int | None:
-    return granted_cpus()
-
-
-def refuse(item: int) -> int:
-    if item < 0:
-        raise ResusError(f"item {item} is negative")
-    return item
+    for module in unit_modules:
+        ray.cloudpickle.unregister_pickle_by_value(module)
 
 
 def die_once(marker: str) -> int:
@@ -96,16 +86,6 @@ def test_a_killed_worker_has_its_unit_retried(tmp_path):
     pids = RayExecutor(2).map(die_once, markers, "t", "x", progress=False)
     assert all(Path(marker).exists() for marker in markers)  # each first run died
     assert all(pid != os.getpid() for pid in pids)
-
-
-def count_and_square(job: tuple[int, str]) -> int:
-    """Fails while a 'fail' file exists for item 2; counts every finished run in a file."""
-    item, folder = job
-    if item == 2 and (Path(folder) / "fail").exists():
-        raise ResusError("unit 2 failed")
-    with open(Path(folder) / f"ran_{item}", "a") as runs:
-        runs.write("ran\n")
-    return item * item
 
 
 def test_a_resumed_ray_run_recomputes_nothing_that_finished(tmp_path):
@@ -159,28 +139,7 @@ def test_simulate_subjects_writes_the_same_sweeps_on_ray(monkeypatch, capsys, tm
 
 # `experiment subjects --preset quick` takes minutes a run on 2 cores: this test runs the same
 # command on a test-only preset, "tiny" (48 x 48 frames, 2 cm sweeps at 8 frames/s, the
-# smallest U-Net for one epoch), 3 subjects, regimes us and resus: 6 training units.
-TINY_SWEEP = LinearPattern(length=0.02, speed=0.01, frame_rate=8.0)
-TINY = ExperimentPreset(
-    name="tiny",
-    training=dataclasses.replace(
-        QUICK,
-        model=ModelConfig(
-            encoder_name="resnet18", encoder_depth=3, decoder_channels=(16, 8, 4), image_size=48
-        ),
-        max_epochs=1,
-    ),
-    scans=ScanSettings(
-        cols=48,
-        rows=48,
-        sweep=TINY_SWEEP,
-        spacing=1.0e-3,
-        reslice=ResliceSettings(angles_deg=(-20.0, 0.0, 20.0), step=6, size=48),
-    ),
-    subjects=(0, 1, 2),
-    phantom_scans=(TINY_SWEEP, dataclasses.replace(TINY_SWEEP, start=(0.003, -0.035))),
-    repeats=2,
-)
+# smallest U-Net for one epoch; tests/tiny_experiment.py), 3 subjects, regimes us and resus.
 ENVIRONMENT = ("executor", "command", "data_folder", "seconds")
 """results.json entries that say how and where a run went, not what it found."""
 

@@ -1,6 +1,5 @@
 """`resus experiment`: tiny end-to-end runs of both tables, their reports, and the CLI's errors."""
 
-import dataclasses
 import json
 import re
 import statistics
@@ -9,43 +8,17 @@ import sys
 
 import pytest
 import torch
+from tiny_experiment import TINY
 
-from resus.acquisition.patterns import LinearPattern
-from resus.experiments.data import ScanSettings
 from resus.experiments.tables import (
-    ExperimentPreset,
     RunOptions,
     run_phantom_experiment,
     run_subjects_experiment,
 )
-from resus.reslicing.reslice import ResliceSettings
-from resus.segmentation.presets import QUICK, ModelConfig
 
 pytestmark = pytest.mark.slow  # the demo and experiments run whole pipelines
 
 torch.set_num_threads(1)  # one per pytest-xdist worker: more oversubscribes the 2 cores
-
-TINY_SWEEP = LinearPattern(length=0.02, speed=0.01, frame_rate=8.0)
-TINY = ExperimentPreset(
-    name="tiny",
-    training=dataclasses.replace(
-        QUICK,
-        model=ModelConfig(
-            encoder_name="resnet18", encoder_depth=3, decoder_channels=(16, 8, 4), image_size=48
-        ),
-        max_epochs=1,
-    ),
-    scans=ScanSettings(
-        cols=48,
-        rows=48,
-        sweep=TINY_SWEEP,
-        spacing=1.0e-3,
-        reslice=ResliceSettings(angles_deg=(-20.0, 0.0, 20.0), step=6, size=48),
-    ),
-    subjects=(0, 1, 2),
-    phantom_scans=(TINY_SWEEP, dataclasses.replace(TINY_SWEEP, start=(0.003, -0.035))),
-    repeats=2,
-)
 
 
 def numbers(line: str) -> list[float]:

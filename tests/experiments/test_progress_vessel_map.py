@@ -11,14 +11,12 @@ import dataclasses
 import re
 
 import pytest
+from simulated_sweeps import simulate_vessel_sweep
 
-from resus.acquisition.backends.simulated import SimulatedProbeConfig
-from resus.acquisition.patterns import LinearPattern
-from resus.acquisition.simulation import resolve_scene, simulate_sweep
+from resus.acquisition.simulation import resolve_scene
 from resus.sweep.io import read_sweep
 from resus.vessels.map import VesselMapSettings
 from resus.vessels.pipeline import MAP_STEPS, VesselJob, map_progress, map_vessels
-from sim.ultrasound.probe import LinearProbe
 
 COARSE = VesselJob(map=VesselMapSettings(spacing=0.8e-3, smoothing_iterations=0))
 
@@ -26,13 +24,7 @@ COARSE = VesselJob(map=VesselMapSettings(spacing=0.8e-3, smoothing_iterations=0)
 @pytest.fixture(scope="module")
 def sweep(tmp_path_factory):
     path = tmp_path_factory.mktemp("progress") / "sweep.h5"
-    simulate_sweep(
-        path,
-        resolve_scene("default", None, None),
-        LinearPattern(start=(0.0, -0.01), length=0.02, speed=0.025),
-        probe=SimulatedProbeConfig(probe=LinearProbe(cols=48, rows=48, depth=0.04)),
-        progress=False,
-    )
+    simulate_vessel_sweep(path, start_y=-0.01, length=0.02, pixels=48)
     return dataclasses.replace(read_sweep(path), source="real")
 
 

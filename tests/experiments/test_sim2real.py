@@ -235,6 +235,14 @@ def test_a_small_run_end_to_end(tmp_path):
     assert rerun.points == result.points
 
 
+def run_sim2real_cli(monkeypatch, capsys, real: Path, out: Path, *options: str) -> tuple[int, str]:
+    """`resus experiment sim2real --real REAL --out OUT OPTIONS...`: its status and stderr."""
+    status, _, err = run_main(
+        monkeypatch, capsys, "experiment", "sim2real", "--real", real, "--out", out, *options
+    )
+    return status, err
+
+
 @pytest.mark.parametrize(
     ("make", "message"),
     [
@@ -246,17 +254,7 @@ def test_a_small_run_end_to_end(tmp_path):
     ],
 )
 def test_cli_refuses_a_real_folder_it_cannot_use(monkeypatch, capsys, tmp_path, make, message):
-    real = make(tmp_path)
-    status, _, err = run_main(
-        monkeypatch,
-        capsys,
-        "experiment",
-        "sim2real",
-        "--real",
-        str(real),
-        "--out",
-        str(tmp_path / "o"),
-    )
+    status, err = run_sim2real_cli(monkeypatch, capsys, make(tmp_path), tmp_path / "o")
     assert status == 2 and "Traceback" not in err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: "), err
@@ -292,18 +290,7 @@ def test_a_sweep_is_reused_only_from_the_same_phantom_subject_seed_and_scanner()
 
 def test_cli_names_a_bad_training_preset(monkeypatch, capsys, tmp_path):
     real = write_real_folder(tmp_path / "real", 4)
-    status, _, err = run_main(
-        monkeypatch,
-        capsys,
-        "experiment",
-        "sim2real",
-        "--real",
-        real,
-        "--out",
-        tmp_path / "o",
-        "--training",
-        "huge",
-    )
+    status, err = run_sim2real_cli(monkeypatch, capsys, real, tmp_path / "o", "--training", "huge")
     assert status == 2 and err.strip().splitlines() == [
         "error: --training: unknown preset 'huge'; choose one of quick, cpu128, paper"
     ]

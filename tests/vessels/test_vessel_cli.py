@@ -6,24 +6,13 @@ from pathlib import Path
 import h5py
 import pytest
 from cli_runner import resus
-
-from resus.acquisition.backends.simulated import SimulatedProbeConfig
-from resus.acquisition.patterns import LinearPattern
-from resus.acquisition.simulation import resolve_scene, simulate_sweep
-from sim.ultrasound.probe import LinearProbe
+from simulated_sweeps import simulate_vessel_sweep
 
 
 @pytest.fixture(scope="module")
 def sweep_path(tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("vessels_cli") / "sweep.h5"
-    simulate_sweep(
-        path,
-        resolve_scene("default", None, None),
-        LinearPattern(start=(0.0, -0.05), length=0.04, speed=0.025),
-        probe=SimulatedProbeConfig(probe=LinearProbe(cols=96, rows=96, depth=0.04)),
-        progress=False,
-    )
-    return path
+    return simulate_vessel_sweep(path, start_y=-0.05, length=0.04, pixels=96)
 
 
 def test_maps_a_sweep_and_writes_every_output(sweep_path: Path, tmp_path: Path) -> None:

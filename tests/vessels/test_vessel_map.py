@@ -11,14 +11,9 @@ import math
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
+from simulated_sweeps import simulate_vessel_sweep
 
-from resus.acquisition.backends.simulated import SimulatedProbeConfig
-from resus.acquisition.patterns import LinearPattern
-from resus.acquisition.simulation import (
-    phantom_spec,
-    resolve_scene,
-    simulate_sweep,
-)
+from resus.acquisition.simulation import phantom_spec, resolve_scene
 from resus.sweep.io import read_sweep
 from resus.vessels.anatomy import AnatomicalFrame
 from resus.vessels.map import VesselMapSettings, build_vessel_map
@@ -28,7 +23,6 @@ from resus.vessels.needle import NeedleSettings, SkinModel, plan_needle
 from resus.vessels.track import vessel_track
 from sim.phantom import Phantom
 from sim.transforms import invert_pose
-from sim.ultrasound.probe import LinearProbe
 
 SETTINGS = VesselMapSettings(spacing=0.4e-3)
 
@@ -37,14 +31,7 @@ SETTINGS = VesselMapSettings(spacing=0.4e-3)
 def mapped(tmp_path_factory):
     scene = resolve_scene("default", None, None)
     path = tmp_path_factory.mktemp("vessels") / "sweep.h5"
-    simulate_sweep(
-        path,
-        scene,
-        LinearPattern(start=(0.0, -0.06), length=0.08, speed=0.025),
-        probe=SimulatedProbeConfig(probe=LinearProbe(cols=96, rows=96, depth=0.04)),
-        progress=False,
-    )
-    sweep = read_sweep(path)
+    sweep = read_sweep(simulate_vessel_sweep(path, start_y=-0.06, length=0.08, pixels=96))
     frame = AnatomicalFrame.from_scene(scene)
     vessel_map = build_vessel_map(
         sweep.frames, sweep.labels, sweep.probe_to_base, sweep.image_to_probe, frame, SETTINGS
