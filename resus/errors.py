@@ -3,7 +3,7 @@ where the simulator's errors become it."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -18,6 +18,13 @@ class ResusError(Exception):
     def __init__(self, message: str, path: str | Path | None = None) -> None:
         self.path = None if path is None else Path(path)
         super().__init__(f"{path}: {message}" if path is not None else message)
+
+
+def check_choice(setting: str, value: object, choices: Collection[str]) -> None:
+    """Raise a ResusError naming `setting` (e.g. `ScanSettings.grid`) unless `value` is one of
+    `choices`: one wording for every closed set of names in the library."""
+    if value not in choices:
+        raise ResusError(f"{setting} must be one of {', '.join(choices)}, got {value!r}")
 
 
 @contextmanager

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from resus.acquisition.patterns import LinearPattern
-from resus.errors import ResusError
+from resus.errors import ResusError, check_choice
 from resus.execution import Executor, limit_numba_threads, make_executor, read_json, write_json
 from resus.reconstruction.compounding import ReconstructionSettings
 from resus.reslicing.reslice import ResliceSettings
@@ -49,10 +49,7 @@ class ScanSettings:
     reslice: ResliceSettings = field(default_factory=ResliceSettings)
 
     def __post_init__(self) -> None:
-        if self.grid not in GRIDS:
-            raise ResusError(
-                f"ScanSettings.grid must be one of {', '.join(GRIDS)}, got {self.grid!r}"
-            )
+        check_choice("ScanSettings.grid", self.grid, GRIDS)
         if not self.spacing > 0:
             raise ResusError(f"ScanSettings.spacing must be positive, got {self.spacing}")
         if self.cols < 2 or self.rows < 2:

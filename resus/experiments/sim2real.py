@@ -36,7 +36,7 @@ import numpy as np
 import torch
 
 from resus.acquisition.patterns import LinearPattern
-from resus.errors import ResusError
+from resus.errors import ResusError, check_choice
 from resus.execution import Executor, Resources, make_executor
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.evaluate import Evaluation, score_labels
@@ -107,10 +107,7 @@ class Sim2RealSettings:
         where = "Sim2RealSettings"
         if not self.subjects:
             raise ResusError(f"{where}.subjects is empty")
-        if self.regime not in SIM2REAL_REGIMES:
-            raise ResusError(
-                f"{where}.regime must be one of {', '.join(SIM2REAL_REGIMES)}, got {self.regime!r}"
-            )
+        check_choice(f"{where}.regime", self.regime, SIM2REAL_REGIMES)
         counts = self.label_counts
         if not counts or list(counts) != sorted(set(counts)) or counts[0] < 0:
             raise ResusError(

@@ -25,7 +25,7 @@ from itertools import product
 import numpy as np
 from scipy import ndimage
 
-from resus.errors import ResusError
+from resus.errors import ResusError, check_choice
 from resus.reconstruction import kernels
 from resus.reconstruction.grid import VolumeGrid, ensure_memory
 
@@ -58,16 +58,8 @@ class ReconstructionSettings:
     """Weight offset (voxels) of hole filling's 1/(d + alpha)^2 voxel weights."""
 
     def __post_init__(self) -> None:
-        if self.method not in METHODS:
-            raise ResusError(
-                f"ReconstructionSettings.method must be one of {', '.join(METHODS)}, "
-                f"got {self.method!r}"
-            )
-        if self.compounding not in COMPOUNDINGS:
-            raise ResusError(
-                f"ReconstructionSettings.compounding must be one of {', '.join(COMPOUNDINGS)}, "
-                f"got {self.compounding!r}"
-            )
+        check_choice("ReconstructionSettings.method", self.method, METHODS)
+        check_choice("ReconstructionSettings.compounding", self.compounding, COMPOUNDINGS)
         for name in ("radius", "alpha", "fill_radius_step", "fill_alpha"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise ResusError(

@@ -34,7 +34,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from resus.errors import ResusError
+from resus.errors import ResusError, check_choice
 from resus.reconstruction.grid import VolumeGrid
 from resus.reconstruction.io import intensity_to_uint8
 from resus.reslicing.geometry import (
@@ -73,15 +73,18 @@ class ResliceSettings:
     def __post_init__(self) -> None:
         object.__setattr__(self, "angles_deg", tuple(float(a) for a in self.angles_deg))
         if not self.angles_deg or not all(np.isfinite(self.angles_deg)):
-            raise ResusError(f"--angles must be finite degrees, got {self.angles_deg}")
+            raise ResusError(
+                f"ResliceSettings.angles_deg must be finite degrees, got {self.angles_deg}"
+            )
         if self.step < 1:
-            raise ResusError(f"--step must be at least 1 voxel, got {self.step}")
+            raise ResusError(f"ResliceSettings.step must be at least 1 voxel, got {self.step}")
         if not 0.0 <= self.min_nonzero <= 1.0:
-            raise ResusError(f"--min-nonzero must be a fraction in 0..1, got {self.min_nonzero}")
+            raise ResusError(
+                f"ResliceSettings.min_nonzero must be a fraction in 0..1, got {self.min_nonzero}"
+            )
         if self.size < 2:
-            raise ResusError(f"--size must be at least 2 pixels, got {self.size}")
-        if self.method not in METHODS:
-            raise ResusError(f"--method must be one of {', '.join(METHODS)}, got {self.method!r}")
+            raise ResusError(f"ResliceSettings.size must be at least 2 pixels, got {self.size}")
+        check_choice("ResliceSettings.method", self.method, METHODS)
 
     def angle_pairs(self) -> list[tuple[float, float]]:
         """Every (angle about x, angle about y) combination, in degrees."""

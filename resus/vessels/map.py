@@ -28,7 +28,7 @@ import trimesh
 from scipy import ndimage
 from skimage.measure import marching_cubes
 
-from resus.errors import ResusError
+from resus.errors import ResusError, check_choice
 from resus.reconstruction.compounding import ReconstructionSettings, reconstruct
 from resus.reconstruction.grid import VolumeGrid, aabb_grid
 from resus.sweep.model import pixels_to_world
@@ -66,11 +66,7 @@ class VesselMapSettings:
     labels already told apart, e.g. by compression)."""
 
     def __post_init__(self) -> None:
-        if self.classes not in CLASS_RULES:
-            raise ResusError(
-                f"VesselMapSettings.classes must be one of {', '.join(CLASS_RULES)}, "
-                f"got {self.classes!r}"
-            )
+        check_choice("VesselMapSettings.classes", self.classes, CLASS_RULES)
         if not self.spacing > 0:
             raise ResusError(f"VesselMapSettings.spacing must be positive, got {self.spacing}")
         for name in ("margin", "min_part_volume", "smoothing_iterations"):

@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 from tqdm import tqdm
 
-from resus.errors import ResusError
+from resus.errors import ResusError, check_choice
 from resus.reconstruction.grid import VolumeGrid
 from resus.sweep.model import Sweep
 from resus.vessels.anatomy import AnatomicalFrame, VesselPart
@@ -47,10 +47,7 @@ class VesselJob:
     map: VesselMapSettings = field(default_factory=VesselMapSettings)
 
     def __post_init__(self) -> None:
-        if self.target not in VESSEL_CLASSES:
-            raise ResusError(
-                f"VesselJob.target must be one of {', '.join(VESSEL_CLASSES)}, got {self.target!r}"
-            )
+        check_choice("VesselJob.target", self.target, VESSEL_CLASSES)
 
 
 @dataclass(frozen=True)

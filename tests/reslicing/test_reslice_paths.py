@@ -130,8 +130,8 @@ def test_settings_and_angles_are_checked():
         with pytest.raises(ResusError, match="--angles"):
             parse_angles(text)
     for field, value in (("step", 0), ("min_nonzero", 1.5), ("size", 1), ("method", "warp")):
-        with pytest.raises(ResusError, match=f"--{field.replace('_', '-')}"):
-            ResliceSettings(**{field: value})
+        with pytest.raises(ResusError, match=f"ResliceSettings.{field} must be"):
+            ResliceSettings(**{field: value})  # the setting's name; the CLI names its flag
 
 
 def test_mismatched_inputs_are_refused():
