@@ -183,7 +183,8 @@ SIM2REAL_PRESETS: dict[str, Sim2RealSettings] = {
     ),
 }
 """`quick`: 18 subjects of 20 mm, the 128 px CPU training preset (its training alone: 12
-minutes on 2 idle cores, measured with six 60 mm sweeps, the same frame count); `paper`: 24 subjects at the paper's 256 px ResNet34 U-Net, 5 splits (a GPU)."""
+minutes on 2 idle cores, measured with six 60 mm sweeps, the same frame count); `paper`: 24
+subjects at the paper's 256 px ResNet34 U-Net, 5 splits (a GPU)."""
 
 
 def get_sim2real_preset(name: str) -> Sim2RealSettings:
