@@ -223,11 +223,11 @@ femoral triangle obliquely, the iliopsoas and pectineus run nearly along it."""
 def build_muscles(
     anatomy: FemoralAnatomy, body: BodySpec, lateral: float
 ) -> tuple[VesselSpec, ...]:
-    """Muscle bellies: `muscle_count` straight tubes along the leg, each beside the vessel pair
-    (either side, at the vessels' depth: sartorius, adductor longus) or beneath it (iliopsoas,
-    pectineus), drifting sideways as it runs (`make_subject` leaves out a belly that would
-    touch a vessel). In a transverse image a belly is a large hypoechoic disc with bright
-    fascia at its border: a dark shape as big as a vein that is not one."""
+    """Muscle bellies: `muscle_count` tubes along the leg that follow the vessel pair's course,
+    each beside it (either side, at the vessels' depth: sartorius, adductor longus) or beneath
+    it (iliopsoas, pectineus), drifting sideways as it runs (`make_subject` leaves out a belly
+    that would touch a vessel). In a transverse image a belly is a large hypoechoic disc with
+    bright fascia at its border: a dark shape as big as a vein that is not one."""
     from sim.phantom.spec import VesselSpec
 
     a = anatomy

@@ -76,8 +76,9 @@ class Phantom:
         self.materials: tuple[Material, ...] = (*spec.layers, spec.blood, *bone, *node, *muscle)
         self._blood_index = len(spec.layers)
         self._bone_index = len(spec.layers) + 1 if bone else -1
-        self._node_index = len(spec.layers) + 1 + len(bone) if node else -1
-        self._muscle_index = len(spec.layers) + 1 + len(bone) + len(node) if muscle else -1
+        # -1 where there are no tubes of a kind: the sampling kernel then skips their lookup
+        self._node_index = len(spec.layers) + 1 + len(bone) if spec.nodes else -1
+        self._muscle_index = len(spec.layers) + 1 + len(bone) + len(node) if spec.muscles else -1
         self._body_kind, self._body_params = body_shape.body_parameters(spec.body)
         self._layer_bottoms = np.cumsum([layer.thickness for layer in spec.layers[:-1]])
 
