@@ -9,14 +9,7 @@ from sim.labels import ARTERY, LABEL_NAMES, VEIN
 from sim.phantom.anatomy import FemoralAnatomy
 from sim.phantom.loader import load_phantom
 from sim.phantom.phantom import VESSEL_SEARCH_RADIUS, Phantom, TissueSample
-from sim.phantom.spec import (
-    BodySpec,
-    Layer,
-    Material,
-    PhantomSpec,
-    Variation,
-    VesselSpec,
-)
+from sim.phantom.spec import BodySpec, Layer, Material, PhantomSpec, Variation, VesselSpec
 from sim.phantom.subjects import make_subject
 
 __all__ = [
