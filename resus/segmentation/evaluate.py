@@ -30,7 +30,7 @@ from tqdm import tqdm
 
 from resus.errors import ResusError
 from resus.segmentation.folders import VESSEL, FolderImages
-from resus.segmentation.metrics import intersection_and_union
+from resus.segmentation.metrics import intersection_and_union, iou_of, overlap_counts
 from resus.segmentation.trained_model import TrainedModel
 from sim.labels import EXTRA_COLOURS, VESSEL_CLASSES, tint_labels
 
@@ -50,8 +50,8 @@ class Overlap:
 
     @property
     def iou(self) -> float:
-        """Intersection over union; 1.0 when the class is in neither."""
-        return 1.0 if self.union == 0 else self.intersection / self.union
+        """Intersection over union; 1.0 when the class is in neither (`metrics.iou_of`)."""
+        return iou_of(self.intersection, self.union)
 
     @property
     def dice(self) -> float:
@@ -82,13 +82,7 @@ def overlaps(
     and vein counted by `metrics.intersection_and_union`)."""
     if predicted.shape != truth.shape:
         raise ResusError(f"prediction shape {predicted.shape} != label shape {truth.shape}")
-    in_predicted, in_truth = predicted > 0, truth > 0
-    result = {
-        VESSEL: Overlap(
-            int(np.count_nonzero(in_predicted & in_truth)),
-            int(np.count_nonzero(in_predicted | in_truth)),
-        )
-    }
+    result = {VESSEL: Overlap(*overlap_counts(predicted > 0, truth > 0))}
     if len(classes) > 1:
         counts = intersection_and_union(predicted, truth)
         pairs = zip(VESSEL_CLASSES, counts, strict=True)

@@ -24,6 +24,19 @@ def no_counts() -> np.ndarray:
     return np.zeros((len(VESSEL_CLASSES), 2), dtype=np.int64)
 
 
+def overlap_counts(in_predicted: np.ndarray, in_truth: np.ndarray) -> tuple[int, int]:
+    """Pixels of one class in both masks (intersection) and in either (union)."""
+    return (
+        int(np.count_nonzero(in_predicted & in_truth)),
+        int(np.count_nonzero(in_predicted | in_truth)),
+    )
+
+
+def iou_of(intersection: int, union: int) -> float:
+    """Intersection over union; 1.0 for an empty union (the class in neither: exactly right)."""
+    return 1.0 if union == 0 else intersection / union
+
+
 def intersection_and_union(predicted: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """(2, 2) int64 counts: row per vessel class (artery, vein), columns (intersection, union)."""
     predicted, truth = np.asarray(predicted), np.asarray(truth)
@@ -31,11 +44,7 @@ def intersection_and_union(predicted: np.ndarray, truth: np.ndarray) -> np.ndarr
         raise ValueError(f"prediction shape {predicted.shape} != label shape {truth.shape}")
     counts = no_counts()
     for row, label in enumerate(VESSEL_CLASSES.values()):
-        in_predicted, in_truth = predicted == label, truth == label
-        counts[row] = (
-            np.count_nonzero(in_predicted & in_truth),
-            np.count_nonzero(in_predicted | in_truth),
-        )
+        counts[row] = overlap_counts(predicted == label, truth == label)
     return counts
 
 
@@ -53,8 +62,7 @@ class VesselIoU:
     @classmethod
     def from_counts(cls, counts: np.ndarray) -> VesselIoU:
         """From summed `intersection_and_union` counts; an empty union scores 1.0."""
-        ious = [1.0 if union == 0 else intersection / union for intersection, union in counts]
-        return cls(*(float(iou) for iou in ious))
+        return cls(*(float(iou_of(intersection, union)) for intersection, union in counts))
 
     def to_dict(self) -> dict[str, float]:
         return {**asdict(self), "mean": self.mean}
