@@ -31,6 +31,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -43,6 +44,10 @@ from resus.segmentation.evaluate import Evaluation, score_labels
 from resus.segmentation.folders import FolderImages
 from resus.segmentation.presets import TrainingPreset, get_preset, pick_preset
 from resus.segmentation.trained_model import TrainedModel
+
+if TYPE_CHECKING:
+    from sim.phantom import PhantomSpec
+    from sim.ultrasound.scanner import ScannerPreset
 
 SCHEMA = "resus.sim2real/1"
 FROM_SIMULATION, FROM_SCRATCH = "simulation", "scratch"
@@ -78,6 +83,10 @@ class Sim2RealSettings:
     contact_forces: tuple[float, float] = (2.0, 9.0)
     """Each subject's sweep holds a contact force drawn in this range (N): sonographers press
     differently, and the deformable phantom's veins go from round to visibly flattened."""
+    target_depth_fraction: tuple[float, float] | None = (0.35, 0.75)
+    """The sonographer sets each sweep's displayed depth so that the vessels' centres lie at a
+    fraction of it drawn in this range (`subject_preset`), within the depths linear presets
+    span; None keeps the scanner preset's own depth, blind to the anatomy."""
     regime: str = "aug"
     """Training regime of the simulation-only model and of every fine-tuning."""
     export_framing_p: float = 0.5
@@ -134,6 +143,13 @@ class Sim2RealSettings:
                 f"{where}.contact_forces must be (low, high) with 0 < low <= high < 20 N (the "
                 f"scanner's force limit), got {self.contact_forces}"
             )
+        if self.target_depth_fraction is not None:
+            low, high = self.target_depth_fraction
+            if not 0 < low <= high < 1:
+                raise ResusError(
+                    f"{where}.target_depth_fraction must be (low, high) with 0 < low <= high "
+                    f"< 1, got {self.target_depth_fraction}"
+                )
         for name in ("export_framing_p", "zoom_p"):
             if not 0 <= getattr(self, name) <= 1:
                 raise ResusError(f"{where}.{name} must be in [0, 1], got {getattr(self, name)}")
@@ -404,11 +420,10 @@ def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dic
     scanned), and whether its tissue deformed."""
     from resus.acquisition.simulation import phantom_spec, resolve_scene
     from sim.phantom import Phantom
-    from sim.ultrasound.scanner import sweep_preset
 
     scene = resolve_scene("default", settings.phantom, subject)
-    preset = sweep_preset(settings.scanner, seed, subject)
     spec = phantom_spec(scene, seed)
+    preset = subject_preset(settings, spec, subject, seed)
     path = subject_sweep(settings, subject, seed).trajectory(Phantom(spec), scene.phantom_to_base)
     return {
         "phantom": settings.phantom,
@@ -462,16 +477,50 @@ def subject_sweep(settings: Sim2RealSettings, subject: int, seed: int) -> Linear
     )
 
 
+def vessel_depth(spec: PhantomSpec, y: float) -> float:
+    """Mean depth (m, below the phantom's top line) of the centres of the artery and vein
+    tubes that cross the transverse plane at `y`: where a sonographer looks for them."""
+    from sim.phantom.centreline import sample_tube
+
+    depths = []
+    for vessel in spec.vessels:
+        nodes = sample_tube(vessel).nodes
+        if vessel.label and nodes[:, 1].min() <= y <= nodes[:, 1].max():
+            depths.append(-nodes[np.argmin(np.abs(nodes[:, 1] - y)), 2])
+    if not depths:
+        raise ResusError(f"phantom {spec.name!r} has no vessel crossing y = {y:.3f} m")
+    return float(np.mean(depths))
+
+
+def subject_preset(
+    settings: Sim2RealSettings, spec: PhantomSpec, subject: int, seed: int
+) -> ScannerPreset | None:
+    """The scanner preset of a subject's sweep (`sweep_preset`), its displayed depth set, when
+    `settings.target_depth_fraction` asks, so the vessels at the sweep's middle lie at a
+    fraction of it drawn from (seed, subject)."""
+    from sim.ultrasound.scanner import RANDOM_RANGES, sweep_preset
+
+    preset = sweep_preset(settings.scanner, seed, subject)
+    if preset is None or settings.target_depth_fraction is None:
+        return preset
+    sweep = subject_sweep(settings, subject, seed)
+    middle = np.asarray(sweep.start) + sweep.length / 2 * sweep.heading[:2]
+    fraction = np.random.default_rng([seed, subject, 0xDE97]).uniform(
+        *settings.target_depth_fraction
+    )
+    depth = vessel_depth(spec, float(middle[1])) / fraction
+    return preset.at_depth(float(np.clip(depth, *RANDOM_RANGES["depth"])))
+
+
 def _simulate_sweep(job: tuple[Path, Sim2RealSettings, int, int]) -> None:
     """One subject's sweep (top level so worker processes can run it)."""
-    from resus.acquisition.simulation import resolve_scene, simulate_sweep
+    from resus.acquisition.simulation import phantom_spec, resolve_scene, simulate_sweep
     from resus.execution import limit_numba_threads
-    from sim.ultrasound.scanner import sweep_preset
 
     limit_numba_threads()
     path, settings, subject, seed = job
     scene = resolve_scene("default", settings.phantom, subject)
-    preset = sweep_preset(settings.scanner, seed, subject)
+    preset = subject_preset(settings, phantom_spec(scene, seed), subject, seed)
     partial = path.with_suffix(".partial.h5")
     sweep = subject_sweep(settings, subject, seed)
     simulate_sweep(partial, scene, sweep, seed=seed, preset=preset, progress=False)

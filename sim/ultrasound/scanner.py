@@ -77,6 +77,17 @@ class ScannerPreset:
         """Lateral FWHM at the focus (m)."""
         return LATERAL_FWHM_PER_WAVELENGTH_F_NUMBER * self.wavelength * self.f_number
 
+    def at_depth(self, depth: float) -> ScannerPreset:
+        """This preset with the displayed depth set to `depth` (m), the focus kept at the same
+        fraction of it: what a sonographer does to frame the target."""
+        scale = depth / self.depth
+        return dataclasses.replace(
+            self,
+            name=f"{self.name}@{depth * 1e3:.1f}mm",
+            depth=depth,
+            focal_depth=self.focal_depth * scale,
+        )
+
     def probe(self, base: LinearProbe | None = None) -> LinearProbe:
         """`base` (its array width and image size) imaging at this preset's frequency and depth."""
         return dataclasses.replace(

@@ -30,13 +30,17 @@ from resus.experiments.sim2real import (
     repeated_to,
     run_sim2real,
     simulate_subjects,
+    subject_preset,
     subject_sweep,
     sweep_provenance,
+    vessel_depth,
 )
 from resus.experiments.sim2real_report import pretraining_verdict
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.folders import read_folders
 from resus.segmentation.trained_model import load_model
+from sim.phantom import VesselSpec, load_phantom
+from sim.ultrasound.scanner import RANDOM_RANGES, sweep_preset
 
 TINY = Sim2RealSettings(
     name="tiny",
@@ -109,6 +113,7 @@ def test_too_few_real_images_is_one_error_naming_the_settings():
         ({"sweep_tilt_deg": 50.0}, r"sweep_offset must be >= 0 and sweep_tilt_deg in \[0, 45\)"),
         ({"training_cpus": 0}, "training_cpus must be at least 1"),
         ({"contact_forces": (5.0, 2.0)}, r"contact_forces must be \(low, high\)"),
+        ({"target_depth_fraction": (0.5, 1.2)}, r"target_depth_fraction must be \(low, high\)"),
     ],
 )
 def test_settings_refuse_what_cannot_run(changes, message):
@@ -294,3 +299,44 @@ def test_cli_names_a_bad_training_preset(monkeypatch, capsys, tmp_path):
     assert status == 2 and err.strip().splitlines() == [
         "error: --training: unknown preset 'huge'; choose one of quick, cpu128, paper"
     ]
+
+
+def straight_vessel(label: int, x: float, depth: float, radius: float) -> VesselSpec:
+    """A straight tube along y at (x, -depth)."""
+    points = [(x, y, -depth) for y in (-0.08, 0.0, 0.08)]
+    return VesselSpec(f"tube{label}", label, points, [radius] * 3)
+
+
+def test_vessel_depth_is_the_mean_centre_depth_of_the_vessels_crossing_the_plane():
+    spec = dataclasses.replace(
+        load_phantom("default"),
+        vessels=(straight_vessel(1, -0.01, 0.015, 0.004), straight_vessel(2, 0.01, 0.027, 0.005)),
+    )
+    assert vessel_depth(spec, -0.03) == pytest.approx(0.021, abs=1e-9)
+    with pytest.raises(ResusError, match=r"no vessel crossing y = 0\.200 m"):
+        vessel_depth(spec, 0.2)
+
+
+def test_the_displayed_depth_puts_the_vessels_at_the_drawn_fraction_of_it():
+    from resus.acquisition.simulation import phantom_spec, resolve_scene
+
+    low, high = TINY.target_depth_fraction
+    fractions = []
+    for subject in range(6):
+        spec = phantom_spec(resolve_scene("default", TINY.phantom, subject), 3)
+        preset = subject_preset(TINY, spec, subject, 3)
+        own = sweep_preset(TINY.scanner, 3, subject)
+        sweep = subject_sweep(TINY, subject, 3)
+        depth = vessel_depth(spec, sweep.start[1] + sweep.length / 2)
+        assert (
+            preset.name.startswith(own.name + "@")
+            and preset.centre_frequency == own.centre_frequency
+        )
+        assert preset.focal_depth / preset.depth == pytest.approx(own.focal_depth / own.depth)
+        assert RANDOM_RANGES["depth"][0] <= preset.depth <= RANDOM_RANGES["depth"][1]
+        if RANDOM_RANGES["depth"][0] < preset.depth < RANDOM_RANGES["depth"][1]:
+            fractions.append(depth / preset.depth)
+        assert subject_preset(TINY, spec, subject, 3) == preset  # seeded
+    assert len(fractions) >= 4 and low <= min(fractions) and max(fractions) <= high
+    blind = dataclasses.replace(TINY, target_depth_fraction=None)
+    assert subject_preset(blind, spec, 5, 3) == sweep_preset(TINY.scanner, 3, 5)

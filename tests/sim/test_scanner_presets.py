@@ -189,6 +189,17 @@ def test_a_preset_sets_the_probe_depth_and_so_the_pixel_spacing() -> None:
     assert probe.centre_frequency == preset.centre_frequency
 
 
+def test_a_preset_at_another_depth_keeps_its_focus_fraction_and_everything_else() -> None:
+    preset = PRESETS["vascular-deep"]
+    framed = preset.at_depth(0.045)
+    assert (framed.depth, framed.name) == (0.045, "vascular-deep@45.0mm")
+    assert framed.focal_depth == pytest.approx(0.045 * preset.focal_depth / preset.depth)
+    unchanged = {"name", "depth", "focal_depth"}
+    for field in dataclasses.fields(preset):
+        if field.name not in unchanged:
+            assert getattr(framed, field.name) == getattr(preset, field.name), field.name
+
+
 @pytest.mark.parametrize(
     ("name", "message"),
     [("vascullar", "unknown scanner preset 'vascullar'"), ("random-x", "unknown scanner preset")],
