@@ -4,8 +4,9 @@
   tissue properties per pixel (vessel walls overriding the sampled material inside the wall
   band), round-trip attenuation accumulated down the line, transmission loss and a specular
   echo at every impedance step (vessel-wall echoes weighted by the incidence angle), air after
-  tissue stopping the line, optional side-lobe clutter (`lateral_clutter`, computed before:
-  a share of the scatter power of the tissue beside each pixel); the reflectivity
+  tissue stopping the line, each specular echo's reverberation (see the function), optional
+  side-lobe clutter (`lateral_clutter`, computed before: a share of the scatter power of the
+  tissue beside each pixel); the reflectivity
   (echogenicity times the phantom-fixed scatterer field summed over the elevational slice,
   plus specular echoes) is then convolved with the axial pulse. Output: the analytic (IQ)
   echo signal before time-gain compensation.
@@ -142,6 +143,7 @@ def scan_lines(
     seed: np.uint32,
     specular_gain: float,
     specular_exponent: float,
+    reverberation: float,
     has_clutter: bool,
     clutter: np.ndarray,
     has_texture: bool,
@@ -162,6 +164,12 @@ def scan_lines(
     `round_trip_step` = amplitude factor of attenuation over one row there and back,
     `impedance`) have the vessel-wall material appended after the phantom's materials.
     `clutter` (pixels, column-major): scatter power added before attenuation, when `has_clutter`.
+    Reverberation: an echo from depth d that the transducer face reflects (coefficient
+    `reverberation`) goes back to the interface and returns as if from depth 2d, weaker by the
+    interface's reflection and the round trip's attenuation once more: ghost = `reverberation`
+    x specular(d)^2 / `specular_gain`, split between the two rows around 2d (row r's centre
+    lies r + 1/2 pixels below the face). First order only: each higher order is weaker by the
+    same factor again.
     Texture (when `has_texture`): a second hashed field on a lattice of spacing
     1 / `texture_inverse_scale` (per axis, phantom frame); its real part varies each material's
     scatter amplitude log-normally by `texture_variation` (nepers, mean power kept), its
@@ -276,6 +284,12 @@ def scan_lines(
                 accumulate_line(
                     start, lattice_step, elevation_weights[e], seed, reflect_re, reflect_im
                 )
+            if reverberation > 0:  # deepest first, so no ghost is itself reverberated
+                for row in range(rows // 2 - 1, -1, -1):
+                    ghost = np.float32(reverberation) * specular[row] * specular[row]
+                    ghost /= np.float32(specular_gain)
+                    specular[2 * row] += np.float32(0.5) * ghost
+                    specular[2 * row + 1] += np.float32(0.5) * ghost
             for row in range(rows):
                 reflect_re[row] = amplitude[row] * reflect_re[row] + specular[row]
                 reflect_im[row] *= amplitude[row]

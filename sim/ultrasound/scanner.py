@@ -52,6 +52,9 @@ class ScannerPreset:
     clutter_db: float | None = -6.0
     """Side-lobe haze in lumens (`UltrasoundSettings.clutter_db`); see `RANDOM_RANGES`."""
     electronic_noise_db: float = -12.0
+    reverberation: float = 0.3
+    """Transducer-face reflection behind the ghosts of strong interfaces
+    (`UltrasoundSettings.reverberation`)."""
 
     def __post_init__(self) -> None:
         if not 2.0e6 <= self.centre_frequency <= 20.0e6:
@@ -108,6 +111,7 @@ class ScannerPreset:
             speckle_smoothing=self.speckle_smoothing,
             clutter_db=self.clutter_db,
             electronic_noise_db=self.electronic_noise_db,
+            reverberation=self.reverberation,
         )
 
 
@@ -146,6 +150,7 @@ PRESETS: dict[str, ScannerPreset] = {
             grey_gamma=1.0,
             speckle_smoothing=0.0,
             clutter_db=None,
+            reverberation=0.0,
         ),
     )
 }
@@ -165,6 +170,7 @@ RANDOM_RANGES: dict[str, tuple[float, float]] = {
     "speckle_smoothing": (0.0, 0.3e-3),
     "clutter_db": (-12.0, -1.0),
     "electronic_noise_db": (-24.0, -10.0),
+    "reverberation": (0.0, 0.5),
 }
 """Uniform ranges `random_preset` draws from (focus as a fraction of the depth; each TGC
 slider independently). Clutter: lumens in real linear-array exports are only a few dB darker
@@ -174,11 +180,18 @@ in usgra-seg the lumen/tissue grey ratio is 0.60, contrast -4.4 dB); clutter at 
 darker and brighter than that one set's."""
 
 
+DRAWN_LAST = ("reverberation",)
+"""Knobs added after the others, drawn after the TGC sliders so that every earlier knob of a
+seed's preset stayed as it was."""
+
+
 def random_preset(seed: int) -> ScannerPreset:
     """A preset with every knob drawn from `RANDOM_RANGES`, deterministic in `seed`."""
     rng = np.random.default_rng([seed, 0x5CA7])
-    draw = {name: float(rng.uniform(low, high)) for name, (low, high) in RANDOM_RANGES.items()}
+    names = [name for name in RANDOM_RANGES if name not in DRAWN_LAST]
+    draw = {name: float(rng.uniform(*RANDOM_RANGES[name])) for name in names}
     sliders = rng.uniform(*RANDOM_RANGES["tgc_slider_db"], TGC_SLIDERS)
+    draw |= {name: float(rng.uniform(*RANDOM_RANGES[name])) for name in DRAWN_LAST}
     return ScannerPreset(
         name=f"random-{seed}",
         centre_frequency=draw["centre_frequency"],
@@ -193,6 +206,7 @@ def random_preset(seed: int) -> ScannerPreset:
         speckle_smoothing=draw["speckle_smoothing"],
         clutter_db=draw["clutter_db"],
         electronic_noise_db=draw["electronic_noise_db"],
+        reverberation=draw["reverberation"],
     )
 
 

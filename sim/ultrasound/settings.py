@@ -41,6 +41,11 @@ class UltrasoundSettings:
     specular_angle: float = 0.25
     """Incidence angle (rad) between beam and interface normal at which a specular vessel-wall
     echo has fallen to half its normal-incidence amplitude."""
+    reverberation: float = 0.0
+    """Reflection coefficient of the transducer face for returning echoes: every specular echo
+    from depth d comes back once more as if from 2d, weaker by this times the interface's own
+    reflection and attenuation (the ghost copies of a bright fascia or wall deeper in the
+    image). 0: none."""
     electronic_noise_db: float = -15.0
     """Receiver noise (RMS amplitude, dB relative to echogenicity-1 speckle) as it shows at the
     deepest row after time-gain compensation, for a phantom whose `noise_level` is 1; it scales
@@ -106,6 +111,10 @@ class UltrasoundSettings:
         if not self.specular_angle < 1.5:
             raise ValueError(
                 f"ultrasound setting specular_angle must be below pi/2, got {self.specular_angle}"
+            )
+        if not 0 <= self.reverberation < 1:
+            raise ValueError(
+                f"ultrasound setting reverberation must be in [0, 1), got {self.reverberation}"
             )
         if len(self.tgc_sliders_db) == 1:
             raise ValueError("ultrasound setting tgc_sliders_db needs at least two sliders, got 1")

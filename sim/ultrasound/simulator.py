@@ -235,6 +235,7 @@ class UltrasoundSimulator:
             self._seed,
             self.settings.specular_gain,
             self._specular_exponent,
+            self.settings.reverberation,
             self._clutter_power > 0.0,
             self._clutter,
             self._has_texture,

@@ -32,8 +32,10 @@ PLAIN = ScannerPreset(
     grey_gamma=1.0,
     speckle_smoothing=0.0,
     electronic_noise_db=-60.0,
+    reverberation=0.0,
 )
-"""No clutter, identity grey map, negligible noise: the knobs under test act alone."""
+"""No clutter, identity grey map, negligible noise, no reverberation: the knobs under test act
+alone."""
 
 
 @pytest.fixture(scope="module")
@@ -169,6 +171,35 @@ def test_clutter_fills_lumens_and_barely_changes_tissue(phantom) -> None:
     assert tissue_step == pytest.approx(expected, abs=1.5)
 
 
+def test_reverberation_ghosts_the_first_interface_at_twice_its_depth_and_nothing_above() -> None:
+    """Over the femoral phantom's skin, the skin-fat interface of each column (found from the
+    tissue samples, independently of the echo model) comes back once more from twice its
+    depth below the face: the image is unchanged above that ghost and brighter in it."""
+    phantom = Phantom(load_phantom("femoral"))
+    probe = PLAIN.probe(LinearProbe(width=0.012, cols=48, rows=256))
+    x = -0.03
+    pose = looking_down(x)
+    pose[2, 3] = float(phantom.skin_height(np.array([x]), np.array([0.0]))[0]) - 0.0003
+    images = {}
+    for reverberation in (0.0, 0.45):
+        preset = dataclasses.replace(PLAIN, reverberation=reverberation)
+        simulator = UltrasoundSimulator(phantom, probe, preset.settings())
+        images[reverberation] = simulator.render(pose)[0].astype(np.float64)
+    change = images[0.45] - images[0.0]
+    half_pulse = simulator._pulse.shape[0] // 2
+    centres = (np.arange(probe.rows) + 0.5) * probe.pixel_height
+    brighter = []
+    for col, element_x in enumerate(simulator._element_x):
+        column = np.stack([np.full(probe.rows, x + element_x), np.zeros(probe.rows)], axis=1)
+        points = np.column_stack([column, pose[2, 3] - centres])
+        material = phantom.sample(points).material
+        interface = int(np.argmax(np.diff(material) != 0)) + 1  # skin to fat
+        ghost = 2 * interface
+        assert not change[: ghost - half_pulse - 1, col].any(), col
+        brighter.append(change[ghost - half_pulse : ghost + half_pulse + 2, col].mean())
+    assert np.mean(brighter) > 3.0
+
+
 def test_random_presets_are_seeded_and_within_their_ranges() -> None:
     assert random_preset(3) == random_preset(3)
     assert random_preset(3) != random_preset(4)
@@ -214,3 +245,16 @@ def test_bad_presets_are_refused() -> None:
         ScannerPreset(centre_frequency=50e6)
     with pytest.raises(ValueError, match="focal_depth"):
         ScannerPreset(depth=0.03, focal_depth=0.04)
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"reverberation": 1.0}, r"reverberation must be in \[0, 1\), got 1.0"),
+        ({"reverberation": -0.1}, r"reverberation must be in \[0, 1\), got -0.1"),
+        ({"grey_gamma": 0.0}, "grey_gamma must be positive, got 0.0"),
+    ],
+)
+def test_settings_refuse_values_without_a_physical_meaning(changes: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        UltrasoundSettings(**changes)

@@ -174,6 +174,7 @@ def render_layers(attenuation: np.ndarray, impedance: np.ndarray | None = None) 
         mix_seed(9),
         SETTINGS.specular_gain,
         1.0,
+        0.0,  # no reverberation
         False,  # no clutter
         np.zeros(count, np.float32),
         False,  # no texture
