@@ -55,6 +55,8 @@ class ScannerPreset:
     reverberation: float = 0.3
     """Transducer-face reflection behind the ghosts of strong interfaces
     (`UltrasoundSettings.reverberation`)."""
+    persistence: float = 0.3
+    """Frame averaging of the live image (`UltrasoundSettings.persistence`)."""
 
     def __post_init__(self) -> None:
         if not 2.0e6 <= self.centre_frequency <= 20.0e6:
@@ -112,6 +114,7 @@ class ScannerPreset:
             clutter_db=self.clutter_db,
             electronic_noise_db=self.electronic_noise_db,
             reverberation=self.reverberation,
+            persistence=self.persistence,
         )
 
 
@@ -151,6 +154,7 @@ PRESETS: dict[str, ScannerPreset] = {
             speckle_smoothing=0.0,
             clutter_db=None,
             reverberation=0.0,
+            persistence=0.0,
         ),
     )
 }
@@ -171,6 +175,7 @@ RANDOM_RANGES: dict[str, tuple[float, float]] = {
     "clutter_db": (-12.0, -1.0),
     "electronic_noise_db": (-24.0, -10.0),
     "reverberation": (0.0, 0.5),
+    "persistence": (0.0, 0.6),
 }
 """Uniform ranges `random_preset` draws from (focus as a fraction of the depth; each TGC
 slider independently). Clutter: lumens in real linear-array exports are only a few dB darker
@@ -180,7 +185,7 @@ in usgra-seg the lumen/tissue grey ratio is 0.60, contrast -4.4 dB); clutter at 
 darker and brighter than that one set's."""
 
 
-DRAWN_LAST = ("reverberation",)
+DRAWN_LAST = ("reverberation", "persistence")
 """Knobs added after the others, drawn after the TGC sliders so that every earlier knob of a
 seed's preset stayed as it was."""
 
@@ -207,6 +212,7 @@ def random_preset(seed: int) -> ScannerPreset:
         clutter_db=draw["clutter_db"],
         electronic_noise_db=draw["electronic_noise_db"],
         reverberation=draw["reverberation"],
+        persistence=draw["persistence"],
     )
 
 

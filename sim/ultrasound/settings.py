@@ -41,6 +41,10 @@ class UltrasoundSettings:
     specular_angle: float = 0.25
     """Incidence angle (rad) between beam and interface normal at which a specular vessel-wall
     echo has fallen to half its normal-incidence amplitude."""
+    persistence: float = 0.0
+    """Frame averaging of the live stream (`sim.ultrasound.persistence`): the weight of the
+    previous displayed image in the next, 0 to below 1. It acts on a stream of frames (the
+    simulated probe's), never on one rendered pose. 0: none."""
     reverberation: float = 0.0
     """Reflection coefficient of the transducer face for returning echoes: every specular echo
     from depth d comes back once more as if from 2d, weaker by this times the interface's own
@@ -112,9 +116,10 @@ class UltrasoundSettings:
             raise ValueError(
                 f"ultrasound setting specular_angle must be below pi/2, got {self.specular_angle}"
             )
-        if not 0 <= self.reverberation < 1:
-            raise ValueError(
-                f"ultrasound setting reverberation must be in [0, 1), got {self.reverberation}"
-            )
+        for name in ("reverberation", "persistence"):
+            if not 0 <= getattr(self, name) < 1:
+                raise ValueError(
+                    f"ultrasound setting {name} must be in [0, 1), got {getattr(self, name)}"
+                )
         if len(self.tgc_sliders_db) == 1:
             raise ValueError("ultrasound setting tgc_sliders_db needs at least two sliders, got 1")

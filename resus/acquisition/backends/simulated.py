@@ -21,6 +21,7 @@ from sim.robot.scene_config import SceneConfig
 from sim.robot.ur3e import CONTROL_PERIOD, ProtectiveStopError, SimulatedUR3e
 from sim.transforms import invert_pose
 from sim.ultrasound.deformation import TissueLoad
+from sim.ultrasound.persistence import Persistence
 from sim.ultrasound.probe import LinearProbe
 from sim.ultrasound.settings import UltrasoundSettings
 from sim.ultrasound.simulator import UltrasoundSimulator
@@ -112,7 +113,8 @@ class SimulatedProbeConfig:
 
 
 class SimulatedProbe(SyntheticProbe):
-    """Synthetic ultrasound of the scene's phantom at the robot's reported TCP pose.
+    """Synthetic ultrasound of the scene's phantom at the robot's reported TCP pose, through
+    the settings' persistence (frame averaging; the labels are those of the frame's own pose).
 
     The robot may be the in-process MuJoCo arm or any other `Robot` on the same scene (e.g.
     `RTDERobot` talking to the emulator), since the probe only reads its TCP pose and clock.
@@ -137,6 +139,7 @@ class SimulatedProbe(SyntheticProbe):
         self.phantom = phantom or Phantom(load_scene_phantom(self.scene))
         self._base_to_phantom = invert_pose(self.scene.phantom_to_base)
         self.simulator = UltrasoundSimulator(self.phantom, self.config.probe, self.config.settings)
+        self.persistence = Persistence(self.config.settings.persistence)
         self.geometry = self.config.probe
         self._next_frame_time = robot.time()
         self._in_flight: list[tuple[float, Frame]] = []
@@ -148,7 +151,7 @@ class SimulatedProbe(SyntheticProbe):
             image, label = self.simulator.render(
                 self._base_to_phantom @ self.robot.tcp_pose(), self._load(now)
             )
-            frame = Frame(now + self.config.clock_offset, image, label)
+            frame = Frame(now + self.config.clock_offset, self.persistence(image), label)
             self._in_flight.append((now + self.config.latency, frame))
             self._next_frame_time = max(self._next_frame_time + 1 / self.config.frame_rate, now)
         delivered = [frame for due, frame in self._in_flight if due <= now + 1e-9]
