@@ -297,6 +297,9 @@ class SweepReader(AbstractContextManager):
         # dataset opened after the timestamps has at least as many rows (see _committed_count).
         names = ["timestamps", *(name for name in file if name != "timestamps")]
         present = {name: file[name] for name in names if isinstance(file[name], h5py.Dataset)}
+        if file.swmr_mode:  # the checks above cached older shapes: reread them, in this order
+            for dataset in present.values():
+                dataset.refresh()
         self.count = self._committed_count(present)
         frames = present["frames"]
         if frames.dtype != np.uint8 or frames.ndim != 3:
