@@ -418,6 +418,14 @@ def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dic
     """What a sweep of the experiment must have been made from to be reused: the phantom,
     subject, seed, scanner, the subject's sweep pattern and force (where and how it was
     scanned), and whether its tissue deformed."""
+    return _subject_scan(settings, subject, seed)[0]
+
+
+def _subject_scan(
+    settings: Sim2RealSettings, subject: int, seed: int
+) -> tuple[dict, ScannerPreset | None]:
+    """A subject's sweep provenance (`sweep_provenance`) and the scanner preset that makes
+    it, from one draw of the subject's phantom."""
     from resus.acquisition.simulation import phantom_spec, resolve_scene
     from sim.phantom import Phantom
 
@@ -425,7 +433,7 @@ def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dic
     spec = phantom_spec(scene, seed)
     preset = subject_preset(settings, spec, subject, seed)
     path = subject_sweep(settings, subject, seed).trajectory(Phantom(spec), scene.phantom_to_base)
-    return {
+    provenance = {
         "phantom": settings.phantom,
         "subject": subject,
         "seed": spec.seed,
@@ -434,6 +442,7 @@ def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dic
         "contact_force": path.contact_force,
         "deformation": spec.mechanics is not None,
     }
+    return provenance, preset
 
 
 def simulate_subjects(
@@ -452,13 +461,13 @@ def simulate_subjects(
     paths = [folder / f"subject_{k:02d}.h5" for k in settings.subjects]
     work = []
     for subject, path in zip(settings.subjects, paths, strict=True):
-        wanted = sweep_provenance(settings, subject, seed)
+        wanted, preset = _subject_scan(settings, subject, seed)
         if path.is_file():
             with SweepReader(path) as reader:
                 made_from = {key: reader.provenance.get(key) for key in wanted}
             if made_from == wanted:
                 continue
-        work.append((path, settings, subject, seed))
+        work.append((path, settings, subject, seed, preset))
     executor.map(_simulate_sweep, work, "simulate", "sweep", progress=progress)
     return paths
 
@@ -512,15 +521,17 @@ def subject_preset(
     return preset.at_depth(float(np.clip(depth, *RANDOM_RANGES["depth"])))
 
 
-def _simulate_sweep(job: tuple[Path, Sim2RealSettings, int, int]) -> None:
-    """One subject's sweep (top level so worker processes can run it)."""
-    from resus.acquisition.simulation import phantom_spec, resolve_scene, simulate_sweep
+def _simulate_sweep(
+    job: tuple[Path, Sim2RealSettings, int, int, ScannerPreset | None],
+) -> None:
+    """One subject's sweep with its scanner preset (`_subject_scan`'s; top level so worker
+    processes can run it)."""
+    from resus.acquisition.simulation import resolve_scene, simulate_sweep
     from resus.execution import limit_numba_threads
 
     limit_numba_threads()
-    path, settings, subject, seed = job
+    path, settings, subject, seed, preset = job
     scene = resolve_scene("default", settings.phantom, subject)
-    preset = subject_preset(settings, phantom_spec(scene, seed), subject, seed)
     partial = path.with_suffix(".partial.h5")
     sweep = subject_sweep(settings, subject, seed)
     simulate_sweep(partial, scene, sweep, seed=seed, preset=preset, progress=False)

@@ -284,7 +284,7 @@ def scan_lines(
                 accumulate_line(
                     start, lattice_step, elevation_weights[e], seed, reflect_re, reflect_im
                 )
-            if reverberation > 0:  # deepest first, so no ghost is itself reverberated
+            if reverberation > 0 and specular_gain > 0:  # deepest first: no ghost of a ghost
                 for row in range(rows // 2 - 1, -1, -1):
                     ghost = np.float32(reverberation) * specular[row] * specular[row]
                     ghost /= np.float32(specular_gain)
