@@ -31,7 +31,13 @@ def register(app: typer.Typer) -> None:
 
     @app.command("evaluate")
     def evaluate_command(
-        model: Annotated[Path, typer.Option(help="Checkpoint written by `resus train`.")],
+        model: Annotated[
+            list[Path],
+            typer.Option(
+                help="Checkpoint written by `resus train`; repeat it to score the checkpoints "
+                "as one ensemble (their class probabilities averaged)."
+            ),
+        ],
         images: Annotated[Path, typer.Option(help="Folder of PNG/JPEG images, any size.")],
         masks: Annotated[Path, typer.Option(help="Folder of PNG masks named like the images.")],
         out: Annotated[
@@ -42,12 +48,16 @@ def register(app: typer.Typer) -> None:
         """Segment every image, score vessel IoU and Dice against its mask, draw overlays."""
         from resus.segmentation.evaluate import evaluate_folder
         from resus.segmentation.model import resolve_device
-        from resus.segmentation.trained_model import load_model
+        from resus.segmentation.trained_model import load_ensemble, load_model
 
         with flag_error("--device"):
             torch_device = resolve_device(device)
         with flag_error("--model"):
-            trained = load_model(model, torch_device)
+            trained = (
+                load_model(model[0], torch_device)
+                if len(model) == 1
+                else load_ensemble(model, torch_device)
+            )
         data = read_image_folders(images, masks)
         evaluation = evaluate_folder(trained, data, out)
         for line in evaluation.summary():

@@ -31,6 +31,12 @@ def register(group: typer.Typer) -> None:
             str | None,
             typer.Option(help="Training preset instead of the preset's: quick, cpu128, paper."),
         ] = None,
+        ensemble: Annotated[
+            int | None,
+            typer.Option(
+                min=1, help="Simulation-only models averaged (the preset's when not given)."
+            ),
+        ] = None,
         data: Annotated[
             Path | None, typer.Option(help="Scratch folder for the sweeps [OUT/data].")
         ] = None,
@@ -52,6 +58,8 @@ def register(group: typer.Typer) -> None:
         if training is not None:
             with flag_error("--training"):
                 settings = dataclasses.replace(settings, training=training)
+        if ensemble is not None:
+            settings = dataclasses.replace(settings, ensemble=ensemble)
         with flag_error("--device"):
             resolve_device(device)
         with flag_error("--real"):

@@ -19,6 +19,7 @@ import numpy as np
 
 from resus.execution import UnitRecord
 from resus.experiments.sim2real import (
+    CHECKPOINT,
     FROM_SIMULATION,
     RealSplit,
     Sim2RealSettings,
@@ -27,8 +28,8 @@ from resus.experiments.sim2real import (
 )
 from resus.segmentation.folders import FolderImages
 
-SIM_ONLY_FOLDER, FEW_LABEL_FOLDER = "sim_only", "few_label"
-CHECKPOINT, UNIT_RECORD, EXAMPLES = "checkpoint.pt", "unit.json", "examples.npz"
+FEW_LABEL_FOLDER = "few_label"
+UNIT_RECORD, EXAMPLES = "unit.json", "examples.npz"
 
 
 def images_digest(images: FolderImages) -> str:
@@ -59,7 +60,7 @@ class SimOnlyUnit:
     def key(self) -> dict:
         return {
             "unit": "simulation only",
-            "settings": self.settings.to_dict(),
+            "settings": self.settings.unit_key(),
             "seed": self.seed,
             "sweeps": list(self.sweep_provenance),
             "device": self.device,
@@ -129,7 +130,7 @@ class FineTuneUnit:
             "split": {"pool": list(self.split.pool), "test": list(self.split.test)},
             "initialisation": self.initialisation,
             "labels": self.labels,
-            "settings": self.settings.to_dict(),
+            "settings": self.settings.unit_key(),
             "seed": self.seed,
             "device": self.device,
             "torch_threads": self.settings.training_cpus,

@@ -13,8 +13,8 @@ sweeps, reslices from volumes and synthetic test images all go through the same 
 - `metrics` (pooled vessel IoU), `stats` (paired t-test), `loso` (the four regimes and
   leave-one-subject-out evaluation), `inference` (segmenting new frames).
 - Real images: `folders` reads a folder of images and one of masks; `trained_model` wraps a
-  checkpoint (`load_model(path).predict(images)`); `evaluate` scores a model on a folder
-  (vessel IoU and Dice, overlays, metrics.json).
+  checkpoint (`load_model(path).predict(images)`) and makes several one (`load_ensemble`);
+  `evaluate` scores a model on a folder (vessel IoU and Dice, overlays, metrics.json).
 
 The names below are imported from their modules on first use, so `resus.segmentation.presets`
 (which experiment settings and data-preparation workers import) does not load torch.
@@ -59,7 +59,13 @@ if TYPE_CHECKING:
     from resus.segmentation.stats import PairedTest, paired_t_test
     from resus.segmentation.synthetic import synthetic_subject
     from resus.segmentation.train import EpochRecord, TrainingResult, TrainingSummary, train_model
-    from resus.segmentation.trained_model import TrainedModel, load_model
+    from resus.segmentation.trained_model import (
+        ModelEnsemble,
+        Segmenter,
+        TrainedModel,
+        load_ensemble,
+        load_model,
+    )
 
 _MODULES: dict[str, tuple[str, ...]] = {
     "augment": ("build_augmentation",),
@@ -84,7 +90,7 @@ _MODULES: dict[str, tuple[str, ...]] = {
     "stats": ("PairedTest", "paired_t_test"),
     "synthetic": ("synthetic_subject",),
     "train": ("EpochRecord", "TrainingResult", "TrainingSummary", "train_model"),
-    "trained_model": ("TrainedModel", "load_model"),
+    "trained_model": ("ModelEnsemble", "Segmenter", "TrainedModel", "load_ensemble", "load_model"),
 }  # fmt: skip
 _HOMES = {name: module for module, names in _MODULES.items() for name in names}
 
@@ -101,11 +107,13 @@ __all__ = [
     "LabelledImages",
     "LosoResult",
     "ModelConfig",
+    "ModelEnsemble",
     "Overlap",
     "PairedTest",
     "RegimeRun",
     "SegmentationDataset",
     "SegmentationLoss",
+    "Segmenter",
     "Split",
     "TrainedModel",
     "TrainingPreset",
@@ -117,6 +125,7 @@ __all__ = [
     "evaluate_folder",
     "get_preset",
     "load_checkpoint",
+    "load_ensemble",
     "load_model",
     "load_reslice_sets",
     "load_sweep_frames",

@@ -31,10 +31,10 @@ from tqdm import tqdm
 from resus.errors import ResusError
 from resus.segmentation.folders import VESSEL, FolderImages
 from resus.segmentation.metrics import intersection_and_union, iou_of, overlap_counts
-from resus.segmentation.trained_model import TrainedModel
+from resus.segmentation.trained_model import Segmenter
 from sim.labels import EXTRA_COLOURS, VESSEL_CLASSES, tint_labels
 
-SCHEMA = "resus.evaluation/1"
+SCHEMA = "resus.evaluation/2"
 PREDICTION_ALPHA = 0.45
 """Opacity of the predicted classes' tint in the overlays."""
 TRUTH_COLOUR = EXTRA_COLOURS[1]
@@ -171,7 +171,7 @@ def overlay(image: np.ndarray, truth: np.ndarray, predicted: np.ndarray) -> np.n
 
 
 def evaluate_folder(
-    model: TrainedModel, data: FolderImages, out_dir: Path, *, progress: bool = True
+    model: Segmenter, data: FolderImages, out_dir: Path, *, progress: bool = True
 ) -> Evaluation:
     """Segment every image of `data`, score it, and write `out_dir/metrics.json` and
     `out_dir/overlays/NAME.png`."""
@@ -197,7 +197,7 @@ def evaluate_folder(
     evaluation = score_labels(data.names, predicted, data.labels, data.separates_classes)
     metrics = {
         "schema": SCHEMA,
-        "checkpoint": None if model.path is None else str(model.path),
+        "checkpoints": [str(path) for path in model.checkpoints],
         "image_folder": str(data.image_folder),
         "mask_folder": str(data.mask_folder),
         "device": str(model.device),

@@ -1,10 +1,14 @@
-"""Segmenting new images with a trained model.
+"""Segmenting new images with a trained model, or with several as one.
 
 Images of any size are resized to the network's square input, and the class scores are
-resized back (bilinear) before the arg-max, so labels come out at the images' own size.
+resized back (bilinear) before the arg-max, so labels come out at the images' own size. A
+single network's scores are its logits; an ensemble's are its members' mean class
+probabilities (logits of separately trained networks share no scale, probabilities do).
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 import torch
@@ -17,7 +21,7 @@ from resus.segmentation.data import images_to_tensor, resize_images
 
 @torch.no_grad()
 def predict(
-    model: nn.Module,
+    model: nn.Module | Sequence[nn.Module],
     images: np.ndarray,
     *,
     image_size: int,
@@ -26,24 +30,41 @@ def predict(
 ) -> np.ndarray:
     """(N, H, W) uint8 images (array or h5py dataset) -> (N, H, W) uint8 labels, batched.
 
-    Runs on the model's device; `image_size` is the size the model was trained at.
+    Runs on the model's device; `image_size` is the size the model was trained at. A
+    sequence of models (an ensemble: one device, one input size) labels by the mean of their
+    class probabilities.
     """
     if len(images.shape) != 3 or images.dtype != np.uint8:
         raise ResusError(f"predict needs (N, H, W) uint8 images, got {images.shape} {images.dtype}")
-    device = next(model.parameters()).device
-    was_training = model.training
-    model.eval()
+    models = [model] if isinstance(model, nn.Module) else list(model)
+    if not models:
+        raise ResusError("predict needs at least one model")
+    device = next(models[0].parameters()).device
+    was_training = [member.training for member in models]
+    for member in models:
+        member.eval()
     count, height, width = images.shape
     labels = np.empty((count, height, width), dtype=np.uint8)
     starts = range(0, count, batch_size)
     for start in tqdm(starts, desc="segment", unit="batch", disable=not progress):
         batch = np.asarray(images[start : start + batch_size])
-        logits = model(images_to_tensor(resize_images(batch, image_size)).to(device))
+        scores = class_scores(models, images_to_tensor(resize_images(batch, image_size)).to(device))
         if (height, width) != (image_size, image_size):
-            logits = nn.functional.interpolate(logits, size=(height, width), mode="bilinear")
-        labels[start : start + len(batch)] = class_argmax(logits).cpu().numpy()
-    model.train(was_training)
+            scores = nn.functional.interpolate(scores, size=(height, width), mode="bilinear")
+        labels[start : start + len(batch)] = class_argmax(scores).cpu().numpy()
+    for member, mode in zip(models, was_training, strict=True):
+        member.train(mode)
     return labels
+
+
+def class_scores(models: Sequence[nn.Module], inputs: torch.Tensor) -> torch.Tensor:
+    """(N, C, H, W) scores of `inputs`: one model's logits, or several models' mean softmax."""
+    if len(models) == 1:
+        return models[0](inputs)
+    total = torch.softmax(models[0](inputs), dim=1)
+    for member in models[1:]:
+        total += torch.softmax(member(inputs), dim=1)
+    return total / len(models)
 
 
 def class_argmax(logits: torch.Tensor) -> torch.Tensor:

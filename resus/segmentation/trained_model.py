@@ -2,7 +2,10 @@
 
 `load_model(path).predict(images)` is the short way from a `checkpoint.pt` (as `resus train`
 writes it) to labels: the network, its input size and its device travel together, so a caller
-need not know the preset the model was trained with.
+need not know the preset the model was trained with. `load_ensemble(paths)` makes several
+checkpoints one model (a deep ensemble): under a domain shift, such as simulated training
+images against real ones, separately trained networks err differently, and their mean class
+probabilities err less than any one of them.
 """
 
 from __future__ import annotations
@@ -22,28 +25,19 @@ from resus.segmentation.model import resolve_device
 from resus.segmentation.presets import ModelConfig, TrainingPreset
 
 
-class TrainedModel:
-    """A U-Net in eval mode with the config it was saved with."""
+class Segmenter:
+    """What labels images: its networks (one, or an ensemble's), their input size, the
+    images per forward pass, and the checkpoints they came from."""
 
-    def __init__(self, network: nn.Module, config: dict, path: Path | None = None) -> None:
-        self.network = network.eval()
-        self.config = config
-        """The checkpoint's config (`model`, and for trained ones `preset`, `regime`, ...)."""
-        self.path = path
-        """The checkpoint file it came from, if any."""
-        self.image_size = ModelConfig.from_dict(config["model"]).image_size
-        """Side of the square input the network was trained at."""
-        self.batch_size = int(
-            config.get("preset", {}).get(
-                "evaluation_batch_size", TrainingPreset.evaluation_batch_size
-            )
-        )
-        """Images per forward pass (the training preset's evaluation batch size)."""
+    networks: tuple[nn.Module, ...]
+    image_size: int
+    batch_size: int
+    checkpoints: tuple[Path, ...]
 
     @property
     def device(self) -> torch.device:
-        """Where the network runs."""
-        return next(self.network.parameters()).device
+        """Where the networks run."""
+        return next(self.networks[0].parameters()).device
 
     @overload
     def predict(self, images: np.ndarray, *, progress: bool = False) -> np.ndarray: ...
@@ -65,7 +59,7 @@ class TrainedModel:
             return self.predict(images[None], progress=progress)[0]
         if isinstance(images, np.ndarray):
             return predict(
-                self.network,
+                self.networks,
                 images,
                 image_size=self.image_size,
                 batch_size=self.batch_size,
@@ -88,9 +82,55 @@ class TrainedModel:
         return labels
 
 
+class TrainedModel(Segmenter):
+    """A U-Net in eval mode with the config it was saved with."""
+
+    def __init__(self, network: nn.Module, config: dict, path: Path | None = None) -> None:
+        self.network = network.eval()
+        self.networks = (self.network,)
+        self.config = config
+        """The checkpoint's config (`model`, and for trained ones `preset`, `regime`, ...)."""
+        self.path = path
+        """The checkpoint file it came from, if any."""
+        self.checkpoints = () if path is None else (Path(path),)
+        self.image_size = ModelConfig.from_dict(config["model"]).image_size
+        """Side of the square input the network was trained at."""
+        self.batch_size = int(
+            config.get("preset", {}).get(
+                "evaluation_batch_size", TrainingPreset.evaluation_batch_size
+            )
+        )
+        """Images per forward pass (the training preset's evaluation batch size)."""
+
+
 def load_model(path: Path, device: str | torch.device | None = "auto") -> TrainedModel:
     """The model saved at `path` (a `resus.segmentation-checkpoint/1` file) on `device`
     ("auto": CUDA when present, else the CPU)."""
     torch_device = device if isinstance(device, torch.device) else resolve_device(device)
     network, config = load_checkpoint(Path(path), torch_device)
     return TrainedModel(network, config, Path(path))
+
+
+class ModelEnsemble(Segmenter):
+    """Trained models of one input size on one device as one model: each image labelled by
+    the mean of the members' class probabilities (`resus.segmentation.inference`)."""
+
+    def __init__(self, members: Sequence[TrainedModel]) -> None:
+        if not members:
+            raise ResusError("ModelEnsemble.members is empty")
+        sizes = sorted({member.image_size for member in members})
+        if len(sizes) > 1:
+            raise ResusError(f"ModelEnsemble.members must share one input size, got sizes {sizes}")
+        self.members = tuple(members)
+        self.networks = tuple(member.network for member in members)
+        self.image_size = sizes[0]
+        self.batch_size = min(member.batch_size for member in members)
+        self.checkpoints = tuple(path for member in members for path in member.checkpoints)
+
+
+def load_ensemble(
+    paths: Sequence[Path], device: str | torch.device | None = "auto"
+) -> ModelEnsemble:
+    """The models saved at `paths` as one ensemble on `device` (as `load_model`)."""
+    torch_device = device if isinstance(device, torch.device) else resolve_device(device)
+    return ModelEnsemble([load_model(path, torch_device) for path in paths])

@@ -61,7 +61,7 @@ def test_evaluate_scores_a_folder_and_writes_metrics_and_overlays(data, monkeypa
     assert f"vessel: pooled IoU {vessel / pixels:.3f}" in stdout
     assert f"wrote {out / 'metrics.json'} and 4 overlays" in stdout
     metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["schema"] == "resus.evaluation/1" and metrics["classes"] == ["vessel"]
+    assert metrics["schema"] == "resus.evaluation/2" and metrics["classes"] == ["vessel"]
     assert metrics["pooled"]["vessel"]["iou"] == pytest.approx(vessel / pixels)
     assert metrics["both_empty"] == {"vessel": 0}  # the model finds vessel everywhere
     assert [row["name"] for row in metrics["per_image"]] == list(SAMPLES)
@@ -70,6 +70,20 @@ def test_evaluate_scores_a_folder_and_writes_metrics_and_overlays(data, monkeypa
         assert row["iou"] == pytest.approx(band / rows), name
         with Image.open(out / "overlays" / f"{name}.png") as written:
             assert written.size == (columns, rows) and written.mode == "RGB"
+
+
+def test_a_repeated_model_flag_scores_the_checkpoints_as_one_ensemble(data, monkeypatch, capsys):
+    tiny_checkpoint(data / "a.pt", logits=(0.0, 2.0, 0.0))  # artery, softmax 0.787
+    tiny_checkpoint(data / "b.pt", logits=(3.0, 0.0, 0.0))  # background, softmax 0.909
+    arguments = ["--model", data / "a.pt", "--model", data / "b.pt", "--images", data / "images"]
+    arguments += ["--masks", data / "masks", "--out", data / "e", "--device", "cpu"]
+    status, _, stderr = run_main(monkeypatch, capsys, "evaluate", *arguments)
+    assert status == 0, stderr
+    metrics = json.loads((data / "e" / "metrics.json").read_text())
+    assert metrics["checkpoints"] == [str(data / "a.pt"), str(data / "b.pt")]
+    # mean softmax: background 0.507, artery 0.416: no vessel anywhere
+    assert metrics["pooled"]["vessel"]["intersection"] == 0
+    assert metrics["both_empty"] == {"vessel": 1}  # 0001 shows none and gets none
 
 
 def test_train_from_image_folders_then_evaluate(data, monkeypatch, capsys):

@@ -39,6 +39,7 @@ from resus.experiments.sim2real_report import pretraining_verdict
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.folders import read_folders
 from resus.segmentation.trained_model import load_model
+from resus.sweep.io import SweepReader
 from sim.phantom import VesselSpec, load_phantom
 from sim.ultrasound.scanner import RANDOM_RANGES, sweep_preset
 
@@ -112,6 +113,7 @@ def test_too_few_real_images_is_one_error_naming_the_settings():
         ({"export_framing_p": 1.5}, r"export_framing_p must be in \[0, 1\], got 1.5"),
         ({"sweep_tilt_deg": 50.0}, r"sweep_offset must be >= 0 and sweep_tilt_deg in \[0, 45\)"),
         ({"training_cpus": 0}, "training_cpus must be at least 1"),
+        ({"ensemble": 0}, "ensemble must be at least 1"),
         ({"contact_forces": (5.0, 2.0)}, r"contact_forces must be \(low, high\)"),
         ({"target_depth_fraction": (0.5, 1.2)}, r"target_depth_fraction must be \(low, high\)"),
     ],
@@ -238,6 +240,62 @@ def test_a_small_run_end_to_end(tmp_path):
     rerun = run_sim2real(TINY, real, out, seed=3, device="cpu", executor=in_process, progress=False)
     assert [path.stat().st_mtime_ns for path in units] == stamps
     assert rerun.points == result.points
+
+
+@pytest.mark.slow
+def test_an_ensemble_is_its_members_runs_and_scores_by_their_mean_probabilities(tmp_path):
+    import torch
+
+    from resus.segmentation.data import images_to_tensor, resize_images
+
+    folder = write_real_folder(tmp_path / "real", 12)
+    real = read_folders(folder / "images", folder / "masks")
+    settings = dataclasses.replace(TINY, label_counts=(0,), splits=1, ensemble=2)
+    out, in_process = tmp_path / "out", LocalExecutor(1)
+    result = run_sim2real(settings, real, out, seed=3, device="cpu", executor=in_process,
+                          progress=False)  # fmt: skip
+    results = result.to_dict()
+    sim_only = results["sim_only"]
+    assert sim_only["checkpoints"] == ["sim_only/checkpoint.pt", "sim_only/member_1/checkpoint.pt"]
+    members = [load_model(out / path, "cpu") for path in sim_only["checkpoints"]]
+
+    # member 1 is the run at the next seed: its own subjects, scanners and sweeps
+    with SweepReader(out / "data" / "member_1" / "sweeps" / "subject_00.h5") as reader:
+        wanted = sweep_provenance(settings, 0, 4)
+        assert {key: reader.provenance.get(key) for key in wanted} == wanted
+    record = json.loads((out / "sim_only" / "member_1" / "unit.json").read_text())
+    assert record["key"]["seed"] == 4 and "ensemble" not in record["key"]["settings"]
+
+    # each member scored alone, and the ensemble by the arg-max of their mean softmax,
+    # computed here with torch directly
+    for member, scored in zip(members, sim_only["members"], strict=True):
+        alone = scored["pooled"]["vessel"]
+        assert (alone["intersection"], alone["union"]) == vessel_counts(member, real)
+    intersection = union = 0
+    with torch.no_grad():
+        for image, truth in zip(real.images, real.labels, strict=True):
+            inputs = images_to_tensor(resize_images(image[None], members[0].image_size))
+            mean = sum(torch.softmax(m.network(inputs), 1) for m in members) / 2
+            mean = torch.nn.functional.interpolate(mean, size=image.shape, mode="bilinear")
+            vessel, true = mean[0].argmax(0).numpy() > 0, truth > 0
+            intersection += int((vessel & true).sum())
+            union += int((vessel | true).sum())
+    vessel = sim_only["pooled"]["vessel"]
+    assert (vessel["intersection"], vessel["union"]) == (intersection, union)
+
+    # the curve's k = 0 is member 0, the network fine-tuning starts from
+    test = real.subset(results["splits"][0]["test"])
+    zero_intersection, zero_union = vessel_counts(members[0], test)
+    assert results["curve"][0]["iou"] == pytest.approx(zero_intersection / zero_union)
+    assert "ensemble of 2" in (out / "report.md").read_text()
+
+    # a member is the same run whatever the ensemble's size: one model from it trains nothing
+    stamp = (out / "sim_only" / "checkpoint.pt").stat().st_mtime_ns
+    single = run_sim2real(dataclasses.replace(settings, ensemble=1), real, out, seed=3,
+                          device="cpu", executor=in_process, progress=False)  # fmt: skip
+    assert (out / "sim_only" / "checkpoint.pt").stat().st_mtime_ns == stamp
+    assert single.members == () and single.to_dict()["sim_only"]["members"] == []
+    assert single.to_dict()["sim_only"]["pooled"] == sim_only["members"][0]["pooled"]
 
 
 def run_sim2real_cli(monkeypatch, capsys, real: Path, out: Path, *options: str) -> tuple[int, str]:

@@ -10,7 +10,7 @@ from PIL import Image
 from tiny_models import tiny_checkpoint
 
 from resus.errors import ResusError
-from resus.segmentation import load_model
+from resus.segmentation import load_ensemble, load_model
 from resus.segmentation.evaluate import (
     TRUTH_COLOUR,
     evaluate_folder,
@@ -93,6 +93,25 @@ def test_load_model_predicts_arrays_single_images_and_lists(tmp_path) -> None:
         load_model(tmp_path / "none.pt")
 
 
+def test_an_ensemble_labels_by_its_members_mean_class_probabilities(tmp_path) -> None:
+    # member a: logits (0, 2, 0) everywhere, softmax (0.106, 0.787, 0.106): artery
+    # member b: logits (0, 0, 3) everywhere, softmax (0.045, 0.045, 0.909): vein
+    # mean (0.076, 0.416, 0.508): vein, the surer member wins
+    tiny_checkpoint(tmp_path / "a.pt", logits=(0.0, 2.0, 0.0))
+    tiny_checkpoint(tmp_path / "b.pt", logits=(0.0, 0.0, 3.0))
+    images = np.random.default_rng(1).integers(0, 256, (2, 30, 40), dtype=np.uint8)
+    a, b = (load_model(tmp_path / f"{name}.pt", "cpu").predict(images) for name in "ab")
+    assert (a == ARTERY).all() and (b == VEIN).all()
+    ensemble = load_ensemble([tmp_path / "a.pt", tmp_path / "b.pt"], "cpu")
+    assert (ensemble.predict(images) == VEIN).all()
+    assert ensemble.checkpoints == (tmp_path / "a.pt", tmp_path / "b.pt")
+    listed = ensemble.predict([images[0], images[1][:20]])
+    assert [label.shape for label in listed] == [(30, 40), (20, 40)]
+    tiny_checkpoint(tmp_path / "wide.pt", size=96)
+    with pytest.raises(ResusError, match=r"must share one input size, got sizes \[64, 96\]"):
+        load_ensemble([tmp_path / "a.pt", tmp_path / "wide.pt"], "cpu")
+
+
 def test_overlay_tints_the_prediction_and_outlines_the_truth() -> None:
     image = np.full((16, 16), 100, np.uint8)
     truth = np.zeros((16, 16), np.uint8)
@@ -132,7 +151,7 @@ def test_evaluate_folder_writes_metrics_and_overlays(tmp_path) -> None:
         "name": "b",
         "vessel": {"iou": 0.0, "dice": 0.0, "intersection": 0, "union": 400},
     }
-    assert metrics["checkpoint"] == str(tmp_path / "model.pt") and metrics["device"] == "cpu"
+    assert metrics["checkpoints"] == [str(tmp_path / "model.pt")] and metrics["device"] == "cpu"
     for name, shape in (("a", (24, 32)), ("b", (20, 20)), ("c", (24, 32))):
         with Image.open(out / "overlays" / f"{name}.png") as written:
             assert written.mode == "RGB" and written.size == (shape[1], shape[0])
