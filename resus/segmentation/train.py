@@ -145,7 +145,9 @@ def train_model(
     device = device if isinstance(device, torch.device) else resolve_device(device)
     seed_everything(seed)
     size = preset.model.image_size
-    augmentation = build_augmentation(preset.augmentation, seed) if augment else None
+    augmentation = (
+        build_augmentation(preset.augmentation, seed, preset.model.image_size) if augment else None
+    )
     train_data = SegmentationDataset(train_sets, size, augmentation)
     if not sum(len(s) for s in validation_sets):
         raise ResusError("no validation images: a training subject needs at least 2 frames")

@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from augment_configs import QUIET
 
 from resus.segmentation.augment import build_augmentation
 from resus.segmentation.framing import ExportFraming
@@ -63,17 +64,7 @@ def test_marks_are_drawn_in_the_image_only_and_framing_can_be_off():
 
 def test_framing_is_off_in_the_default_aug_regime_and_seeded_when_on():
     image, mask = block_frame()
-    default = build_augmentation(
-        replace(
-            AugmentationConfig(),
-            horizontal_flip_p=0.0,
-            vertical_flip_p=0.0,
-            noise_p=0.0,
-            sharpen_p=0.0,
-            brightness_contrast_p=0.0,
-        ),
-        seed=0,
-    )
+    default = build_augmentation(QUIET, seed=0)
     np.testing.assert_array_equal(default(image=image, mask=mask)["image"], image)
     runs = [build_augmentation(ALWAYS, seed=4)(image=image, mask=mask)["image"] for _ in range(2)]
     np.testing.assert_array_equal(runs[0], runs[1])
