@@ -267,20 +267,76 @@ class _Crossing:
     span: tuple[float, float]
 
 
+REACH_PAD = 1.0e-6
+"""How much farther than its outer radius (m) a map's reach along an image column is taken:
+far more than the kernels' rounding (about 1e-17 m here), so culling by the reach never skips
+a point that the map's own test would have reached."""
+
+
+@numba.njit(cache=True)
+def column_reach(
+    points: np.ndarray, rows: int, row_height: float, beam: np.ndarray, maps: np.ndarray
+) -> np.ndarray:
+    """(M, cols, 2): for each cross-section map and image column, the stretch [lo, hi] of
+    distance along `beam` from the column's top pixel centre within which the column's line
+    passes within the map's outer radius (plus `REACH_PAD`) of its vessel's axis; lo > hi where
+    it never does. The pixel centres (`points`, column-major, as `grid_points` lays them) lie
+    on those lines `row * row_height` down, and the bulk shift moves a point along its line,
+    so a pixel outside a map's reach is not changed by that map (`undeform_points`)."""
+    cols = points.shape[0] // rows
+    reach = np.empty((maps.shape[0], cols, 2))
+    for m in range(maps.shape[0]):
+        row = maps[m]
+        tx, ty, tz = row[3], row[4], row[5]
+        along_beam = beam[0] * tx + beam[1] * ty + beam[2] * tz
+        wx, wy, wz = beam[0] - along_beam * tx, beam[1] - along_beam * ty, beam[2] - along_beam * tz
+        ww = wx * wx + wy * wy + wz * wz  # the beam across the axis: how fast the line nears it
+        radius = row[15] + REACH_PAD
+        for col in range(cols):
+            x = points[col * rows, 0] - row[0] - row[18] * beam[0]
+            y = points[col * rows, 1] - row[1] - row[18] * beam[1]
+            z = points[col * rows, 2] - row[2] - row[18] * beam[2]
+            along = x * tx + y * ty + z * tz
+            bx, by, bz = x - along * tx, y - along * ty, z - along * tz
+            if ww < 1e-12:  # the column runs along the axis: in reach everywhere or nowhere
+                inside = bx * bx + by * by + bz * bz < radius * radius
+                reach[m, col, 0] = -np.inf if inside else np.inf
+                reach[m, col, 1] = np.inf if inside else -np.inf
+                continue
+            nearest = -(bx * wx + by * wy + bz * wz) / ww
+            gap = bx * bx + by * by + bz * bz - nearest * nearest * ww  # squared, at the nearest
+            half = math.sqrt(max(radius * radius - gap, 0.0) / ww)
+            if gap > radius * radius:
+                reach[m, col, 0], reach[m, col, 1] = np.inf, -np.inf
+            else:
+                reach[m, col, 0], reach[m, col, 1] = nearest - half, nearest + half
+    return reach
+
+
 @numba.njit(cache=True, parallel=True)
 def undeform_points(
-    points: np.ndarray, rows: int, beam: np.ndarray, row_shift: np.ndarray, maps: np.ndarray
+    points: np.ndarray,
+    rows: int,
+    row_height: float,
+    beam: np.ndarray,
+    row_shift: np.ndarray,
+    maps: np.ndarray,
+    reach: np.ndarray,
 ) -> None:
     """Map deformed pixel centres (column-major, `rows` per column) in place to the
     undeformed tissue points that moved there: undo the bulk shift along `beam` (inside a
     vessel, its centre's shift), then each cross-section map in turn (see the module
-    docstring)."""
+    docstring). `reach` (`column_reach`) lets most pixels skip the maps that cannot touch
+    them (the vessels' rings cover a small part of an image); the points are the same."""
     for n in numba.prange(points.shape[0]):
         px, py, pz = points[n, 0], points[n, 1], points[n, 2]
+        col, down = n // rows, (n % rows) * row_height
         shift = row_shift[n % rows]
         for m in range(maps.shape[0]):  # a vessel moves rigidly with the tissue at its centre
             row = maps[m]
             centre_shift = row[18]
+            if not reach[m, col, 0] <= down <= reach[m, col, 1]:
+                continue  # the map's weight is 0 here
             weight = _cross_section_weight(
                 px - row[0] - centre_shift * beam[0],
                 py - row[1] - centre_shift * beam[1],
@@ -291,8 +347,11 @@ def undeform_points(
         qx = px - shift * beam[0]
         qy = py - shift * beam[1]
         qz = pz - shift * beam[2]
+        on_line = True  # q is still on the column's line, `down - shift` along it
         for m in range(maps.shape[0]):
             row = maps[m]
+            if on_line and not reach[m, col, 0] <= down - shift + row[18] <= reach[m, col, 1]:
+                continue
             reached, ax, ay, az, rho, nu = _section_coordinates(
                 qx - row[0], qy - row[1], qz - row[2], row
             )
@@ -307,6 +366,7 @@ def undeform_points(
             qx += (scale - 1.0) * ax
             qy += (scale - 1.0) * ay
             qz += (scale - 1.0) * az
+            on_line = False
         points[n, 0] = qx
         points[n, 1] = qy
         points[n, 2] = qz

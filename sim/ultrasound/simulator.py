@@ -31,6 +31,7 @@ from sim.ultrasound.deformation import (
     FrameDeformation,
     ProbeDeformation,
     TissueLoad,
+    column_reach,
     undeform_points,
 )
 from sim.ultrasound.echo import (
@@ -199,7 +200,16 @@ class UltrasoundSimulator:
         if load is not None and self.deformation is not None:
             frame = self.last_deformation = self.deformation.frame(pose, load)
             beam = np.ascontiguousarray(pose[:3, 2])
-            undeform_points(self._points, probe.rows, beam, frame.row_shift, frame.maps)
+            reach = column_reach(self._points, probe.rows, probe.pixel_height, beam, frame.maps)
+            undeform_points(
+                self._points,
+                probe.rows,
+                probe.pixel_height,
+                beam,
+                frame.row_shift,
+                frame.maps,
+                reach,
+            )
         sample = self.phantom.sample(self._points, out=self._sample)
         contact = self.contact(pose)
         if self._clutter_power > 0.0:
