@@ -56,10 +56,9 @@ def simulate_sweep(
     """Scan the scene's phantom with the simulated UR3e along `trajectory` (or a pattern made
     over the phantom) and write a labelled Sweep to `out`; `listeners` (the scanner's) get
     every frame as it is recorded, e.g. an OpenIGTLink server streaming the scan live.
-    `preset` images with that scanner preset's probe and settings (not with `probe`). A
-    phantom with mechanics deforms under the measured contact force unless `rigid`."""
-    if probe is not None and preset is not None:
-        raise ValueError("simulate_sweep takes a probe config or a scanner preset, not both")
+    `preset` sets the frequency, depth and imaging knobs of a scanner preset on top of
+    `probe`'s array width, image size and frame rate. A phantom with mechanics deforms under
+    the measured contact force unless `rigid`."""
     spec = phantom_spec(scene, seed)
     phantom = Phantom(spec)
     if isinstance(trajectory, SweepPattern):
@@ -70,7 +69,9 @@ def simulate_sweep(
         probe_config = dataclasses.replace(probe_config, rigid=True)
     if preset is not None:
         probe_config = dataclasses.replace(
-            probe_config, probe=preset.probe(), settings=preset.settings()
+            probe_config,
+            probe=preset.probe(probe_config.probe),
+            settings=preset.settings(probe_config.settings),
         )
     probe_source = SimulatedProbe(robot, probe_config, phantom)
     scanner = Scanner(

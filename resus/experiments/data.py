@@ -19,11 +19,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from resus.acquisition.patterns import LinearPattern
-from resus.errors import ResusError, check_choice
+from resus.errors import ResusError, check_choice, simulator_errors
 from resus.execution import Executor, limit_numba_threads, make_executor, read_json, write_json
 from resus.reconstruction.compounding import ReconstructionSettings
 from resus.reslicing.reslice import ResliceSettings
 from sim.labels import LABEL_NAMES
+from sim.phantom.loader import load_phantom
+from sim.ultrasound.scanner import scanner_preset
 
 GRIDS = ("ransac", "aabb")
 RECORD = "scan.json"
@@ -35,6 +37,12 @@ class ScanSettings:
 
     scene: str = "default"
     """Scene name (assets/scenes) or YAML path; its phantom is scanned."""
+    phantom: str | None = None
+    """Phantom spec name or YAML path scanned in the scene instead of its own (None: the
+    scene's)."""
+    scanner: str | None = None
+    """Scanner preset name (`sim.ultrasound.scanner.scanner_preset`) imaging every scan at its
+    frequency, depth and image settings; None: the simulator's own settings."""
     cols: int = 256
     """Probe image width (pixels)."""
     rows: int = 256
@@ -50,6 +58,12 @@ class ScanSettings:
 
     def __post_init__(self) -> None:
         check_choice("ScanSettings.grid", self.grid, GRIDS)
+        if self.phantom is not None:
+            with simulator_errors("ScanSettings.phantom"):
+                load_phantom(self.phantom)
+        if self.scanner is not None:
+            with simulator_errors("ScanSettings.scanner"):
+                scanner_preset(self.scanner)
         if not self.spacing > 0:
             raise ResusError(f"ScanSettings.spacing must be positive, got {self.spacing}")
         if self.cols < 2 or self.rows < 2:
@@ -137,7 +151,8 @@ def _prepare_in_worker(job: tuple[Path, Scan, ScanSettings]) -> None:
 def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:
     """What each stage of `scan` depends on, as JSON values (the cache key of each stage)."""
     stages = {
-        "simulate": {"scene": settings.scene, "subject": scan.subject,
+        "simulate": {"scene": settings.scene, "phantom": settings.phantom,
+                     "scanner": settings.scanner, "subject": scan.subject,
                      "sweep": dataclasses.asdict(scan.sweep or settings.sweep),
                      "cols": settings.cols, "rows": settings.rows},
         "reconstruct": {"grid": settings.grid, "spacing": settings.spacing,
@@ -207,8 +222,9 @@ def _simulate(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
     probe = SimulatedProbeConfig(
         probe=LinearProbe(cols=settings.cols, rows=settings.rows), frame_rate=sweep.frame_rate
     )
-    scene = resolve_scene(settings.scene, None, scan.subject)
-    simulate_sweep(data.sweep, scene, sweep, probe=probe, progress=False)
+    scene = resolve_scene(settings.scene, settings.phantom, scan.subject)
+    preset = None if settings.scanner is None else scanner_preset(settings.scanner)
+    simulate_sweep(data.sweep, scene, sweep, probe=probe, preset=preset, progress=False)
 
 
 def _reconstruct(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
