@@ -19,6 +19,13 @@ def register(app: typer.Typer) -> None:
         subjects: Annotated[
             str, typer.Option("--subjects", help="Phantom subjects; the last is held out.")
         ] = "0,1,2",
+        phantom: Annotated[
+            str, typer.Option("--phantom", help="Phantom spec name or YAML path.")
+        ] = "femoral",
+        scanner: Annotated[
+            str,
+            typer.Option("--scanner", help="Scanner preset, or 'none' for the simulator's own."),
+        ] = "vascular",
         image_size: Annotated[int, typer.Option("--image-size", help="Frame size (px).")] = 128,
         sweep_length: Annotated[
             float, typer.Option("--sweep-length", help="Sweep length (m).")
@@ -35,6 +42,8 @@ def register(app: typer.Typer) -> None:
         settings = settings_from_flags(
             DemoSettings,
             subjects=("--subjects", parse_numbers(subjects, "--subjects", kind=int)),
+            phantom=("--phantom", phantom),
+            scanner=("--scanner", None if scanner == "none" else scanner),
             image_size=("--image-size", image_size),
             sweep_length=("--sweep-length", sweep_length),
             max_epochs=("--epochs", epochs),

@@ -23,7 +23,7 @@ import numpy as np
 
 from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
-from resus.experiments.data import ScanSettings, SubjectData, prepare_subjects
+from resus.experiments.data import Scan, ScanSettings, SubjectData, prepare_scans
 from resus.experiments.demo_report import render_report
 from resus.experiments.results import MIN_SEEDS, IoUSummary, compare_models
 from resus.sweep.model import Sweep
@@ -48,6 +48,11 @@ class DemoSettings:
 
     subjects: tuple[int, ...] = (0, 1, 2)
     """Phantom subjects scanned; the last is held out for testing and mapping."""
+    phantom: str = "femoral"
+    """Phantom spec scanned (`assets/phantoms`): the in-vivo femoral triangle by default."""
+    scanner: str | None = "vascular"
+    """Scanner preset imaging every sweep (`sim.ultrasound.scanner.scanner_preset`; None:
+    the simulator's own settings)."""
     image_size: int = 128
     """Probe image width and height (pixels)."""
     sweep_length: float = 0.05
@@ -79,14 +84,38 @@ class DemoSettings:
                 f"DemoSettings.seeds must be at least {MIN_SEEDS} (a seed spread needs two "
                 f"seeds), got {self.seeds}"
             )
+        self.scan_settings()  # the phantom and scanner are checked there, before any work
 
     def training_seeds(self) -> tuple[int, ...]:
         """The seeds each regime is trained with."""
         return tuple(self.seed + k for k in range(self.seeds))
 
+    def scans(self) -> list[Scan]:
+        """One sweep per subject, moved across to centre on the subject's artery and vein at
+        its middle (`vessel_midline`), as a sonographer places the probe."""
+        from resus.acquisition.simulation import phantom_spec, resolve_scene
+        from resus.experiments.sim2real import vessel_midline
+
+        nominal = self.scan_settings().sweep
+        middle = np.asarray(nominal.start) + nominal.length / 2 * nominal.heading[:2]
+        scans = []
+        for subject in self.subjects:
+            spec = phantom_spec(resolve_scene("default", self.phantom, subject))
+            shift = vessel_midline(spec, float(middle[1])) - middle[0]
+            start = (float(nominal.start[0] + shift), nominal.start[1])
+            sweep = dataclasses.replace(nominal, start=start)
+            scans.append(Scan(f"subject_{subject:02d}", subject, sweep))
+        return scans
+
     def scan_settings(self) -> ScanSettings:
         sweep = LinearPattern(start=(0.0, -self.sweep_length / 2), length=self.sweep_length)
-        return ScanSettings(cols=self.image_size, rows=self.image_size, sweep=sweep)
+        return ScanSettings(
+            phantom=self.phantom,
+            scanner=self.scanner,
+            cols=self.image_size,
+            rows=self.image_size,
+            sweep=sweep,
+        )
 
 
 @dataclass(frozen=True)
@@ -130,8 +159,8 @@ def run_demo(
         raise ResusError("output is a file, not a folder", folder)
     folder.mkdir(parents=True, exist_ok=True)
     clock = _Stopwatch()
-    data = prepare_subjects(
-        folder / "data", settings.subjects, settings.scan_settings(), progress=progress
+    data = prepare_scans(
+        folder / "data", settings.scans(), settings.scan_settings(), progress=progress
     )
     clock.lap("simulate, reconstruct, reslice")
     set_torch_threads()

@@ -18,6 +18,9 @@ from resus.experiments.demo_report import number
 from resus.reconstruction.io import read_volume
 from resus.segmentation.checkpoint import load_checkpoint
 from resus.sweep.io import read_sweep
+from resus.sweep.model import pixel_spacing
+from sim.ultrasound.probe import LinearProbe
+from sim.ultrasound.scanner import scanner_preset
 
 pytestmark = pytest.mark.slow  # the demo and experiments run whole pipelines
 
@@ -86,6 +89,20 @@ def test_every_file_the_summary_lists_exists_and_is_valid(demo) -> None:
         assert sweep.frames.shape[1:] == (48, 48) and sweep.labels is not None
 
 
+def test_the_demo_scans_the_femoral_phantom_through_the_vascular_preset(demo) -> None:
+    """The in-vivo phantom by default, imaged at the preset's depth on the demo's image size."""
+    out, _ = demo
+    preset = scanner_preset("vascular")
+    for name in json.loads((out / "summary.json").read_text())["files"]["sweeps"]:
+        sweep = read_sweep(out / name)
+        assert sweep.provenance["phantom"] == "femoral"
+        assert sweep.provenance["scanner"] == "vascular"
+        assert sweep.provenance["deformation"] is True
+        lateral, axial = pixel_spacing(sweep.image_to_probe)
+        assert lateral == pytest.approx(LinearProbe().width / 48)
+        assert axial == pytest.approx(preset.depth / 48)
+
+
 def test_recording_holds_the_scan_volume_maps_and_curves(demo) -> None:
     out, _ = demo
     summary = json.loads((out / "summary.json").read_text())
@@ -142,12 +159,20 @@ def test_report_numbers_come_from_summary_json(demo) -> None:
         assert (out / target).is_file(), target
 
 
+PIXEL_MM = 38.0 / 48
+"""Lateral pixel size of the smallest demo's frames: the 38 mm array over 48 columns."""
+
+
 def test_ground_truth_map_of_the_held_out_sweep_is_close_to_the_phantom(demo) -> None:
+    """The map from the sweep's own labels is scored against the rigid anatomy; the artery
+    (pulsating by 7 %) lies within a pixel of it, the vein, which the sweep's 4 N flatten,
+    within two."""
     out, _ = demo
     scores = json.loads((out / "summary.json").read_text())["vessels"]["ground_truth"]["scores"]
-    for vessel in ("artery", "vein"):
-        assert scores[vessel]["dice"] > 0.8
-        assert scores[vessel]["mean_surface_distance_mm"] < 0.5
+    assert scores["artery"]["dice"] > 0.8
+    assert scores["artery"]["mean_surface_distance_mm"] < PIXEL_MM
+    assert scores["vein"]["dice"] > 0.7
+    assert scores["vein"]["mean_surface_distance_mm"] < 2 * PIXEL_MM
 
 
 def test_demo_refuses_bad_settings_in_one_line(tmp_path: Path) -> None:
@@ -156,6 +181,8 @@ def test_demo_refuses_bad_settings_in_one_line(tmp_path: Path) -> None:
         (("--subjects", "0,x"), "--subjects"),
         (("--epochs", "0"), "--epochs"),
         (("--seeds", "1"), "--seeds"),
+        (("--phantom", "nosuch"), "--phantom"),
+        (("--scanner", "nosuch"), "--scanner"),
     ):
         done = resus("demo", "--out", tmp_path / "o", *args, timeout=60)
         assert done.returncode == 2 and fragment in done.stderr, done.stderr

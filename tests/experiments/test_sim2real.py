@@ -34,6 +34,7 @@ from resus.experiments.sim2real import (
     subject_sweep,
     sweep_provenance,
     vessel_depth,
+    vessel_midline,
 )
 from resus.experiments.sim2real_report import pretraining_verdict
 from resus.segmentation.data import LabelledImages
@@ -373,6 +374,21 @@ def test_vessel_depth_is_the_mean_centre_depth_of_the_vessels_crossing_the_plane
     assert vessel_depth(spec, -0.03) == pytest.approx(0.021, abs=1e-9)
     with pytest.raises(ResusError, match=r"no vessel crossing y = 0\.200 m"):
         vessel_depth(spec, 0.2)
+
+
+def test_vessel_midline_is_midway_between_the_widest_artery_and_vein():
+    """A thin superficial vein (a saphenous one) does not pull the probe's centre aside."""
+    spec = dataclasses.replace(
+        load_phantom("default"),
+        vessels=(
+            straight_vessel(1, 0.015, 0.02, 0.004),
+            straight_vessel(2, -0.002, 0.025, 0.005),
+            straight_vessel(2, -0.015, 0.006, 0.002),
+        ),
+    )
+    assert vessel_midline(spec, 0.01) == pytest.approx(0.0065, abs=1e-9)
+    alone = dataclasses.replace(spec, vessels=spec.vessels[1:])
+    assert vessel_midline(alone, 0.01) == pytest.approx(-0.002, abs=1e-9)
 
 
 def test_the_displayed_depth_puts_the_vessels_at_the_drawn_fraction_of_it():
