@@ -30,6 +30,7 @@ def register(app: typer.Typer) -> None:
         sweep_length: Annotated[
             float, typer.Option("--sweep-length", help="Sweep length (m).")
         ] = 0.05,
+        force: Annotated[float, typer.Option("--force", help="Probe force (N).")] = 1.5,
         epochs: Annotated[int, typer.Option("--epochs", help="Quick U-Net epochs.")] = 8,
         seed: Annotated[int, typer.Option("--seed", help="First training seed.")] = 0,
         seeds: Annotated[
@@ -46,6 +47,7 @@ def register(app: typer.Typer) -> None:
             scanner=("--scanner", None if scanner == "none" else scanner),
             image_size=("--image-size", image_size),
             sweep_length=("--sweep-length", sweep_length),
+            contact_force=("--force", force),
             max_epochs=("--epochs", epochs),
             seed=("--seed", seed),
             seeds=("--seeds", seeds),

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from resus.acquisition.patterns import LinearPattern
+from resus.acquisition.safety import SafetyLimits
 from resus.errors import ResusError
 from resus.experiments.data import Scan, ScanSettings, SubjectData, prepare_scans
 from resus.experiments.demo_report import render_report
@@ -57,6 +58,10 @@ class DemoSettings:
     """Probe image width and height (pixels)."""
     sweep_length: float = 0.05
     """Length of each linear sweep (m)."""
+    contact_force: float = 1.5
+    """Probe force of the sweeps (N): light, as a sonographer scans for vascular access, so the
+    vein keeps its round lumen (at 4 N the femoral vein flattens to an axis ratio of 1.2-1.6,
+    and the needle planner finds no round trunk station on it)."""
     max_epochs: int = 8
     """Epochs of the quick U-Net per regime."""
     seed: int = 0
@@ -77,6 +82,11 @@ class DemoSettings:
             raise ResusError(f"DemoSettings.image_size must be at least 32, got {self.image_size}")
         if not self.sweep_length > 0:
             raise ResusError(f"DemoSettings.sweep_length must be positive, got {self.sweep_length}")
+        if not 0 < self.contact_force < SafetyLimits().max_force:
+            raise ResusError(
+                f"DemoSettings.contact_force must be in (0, {SafetyLimits().max_force}) N (the "
+                f"scanner's force limit), got {self.contact_force}"
+            )
         if self.max_epochs < 1:
             raise ResusError(f"DemoSettings.max_epochs must be at least 1, got {self.max_epochs}")
         if self.seeds < MIN_SEEDS:
@@ -108,7 +118,11 @@ class DemoSettings:
         return scans
 
     def scan_settings(self) -> ScanSettings:
-        sweep = LinearPattern(start=(0.0, -self.sweep_length / 2), length=self.sweep_length)
+        sweep = LinearPattern(
+            start=(0.0, -self.sweep_length / 2),
+            length=self.sweep_length,
+            contact_force=self.contact_force,
+        )
         return ScanSettings(
             phantom=self.phantom,
             scanner=self.scanner,

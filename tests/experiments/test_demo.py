@@ -90,7 +90,8 @@ def test_every_file_the_summary_lists_exists_and_is_valid(demo) -> None:
 
 
 def test_the_demo_scans_the_femoral_phantom_through_the_vascular_preset(demo) -> None:
-    """The in-vivo phantom by default, imaged at the preset's depth on the demo's image size."""
+    """The in-vivo phantom by default, pressed lightly, imaged at the preset's depth on the demo's
+    image size."""
     out, _ = demo
     preset = scanner_preset("vascular")
     for name in json.loads((out / "summary.json").read_text())["files"]["sweeps"]:
@@ -98,6 +99,7 @@ def test_the_demo_scans_the_femoral_phantom_through_the_vascular_preset(demo) ->
         assert sweep.provenance["phantom"] == "femoral"
         assert sweep.provenance["scanner"] == "vascular"
         assert sweep.provenance["deformation"] is True
+        assert sweep.provenance["contact_force"] == 1.5
         lateral, axial = pixel_spacing(sweep.image_to_probe)
         assert lateral == pytest.approx(LinearProbe().width / 48)
         assert axial == pytest.approx(preset.depth / 48)
@@ -164,15 +166,13 @@ PIXEL_MM = 38.0 / 48
 
 
 def test_ground_truth_map_of_the_held_out_sweep_is_close_to_the_phantom(demo) -> None:
-    """The map from the sweep's own labels is scored against the rigid anatomy; the artery
-    (pulsating by 7 %) lies within a pixel of it, the vein, which the sweep's 4 N flatten,
-    within two."""
+    """The map from the sweep's own labels is scored against the rigid anatomy: the artery
+    pulses by 7 % and the light press barely moves the vein, so both lie within a pixel."""
     out, _ = demo
     scores = json.loads((out / "summary.json").read_text())["vessels"]["ground_truth"]["scores"]
-    assert scores["artery"]["dice"] > 0.8
-    assert scores["artery"]["mean_surface_distance_mm"] < PIXEL_MM
-    assert scores["vein"]["dice"] > 0.7
-    assert scores["vein"]["mean_surface_distance_mm"] < 2 * PIXEL_MM
+    for vessel in ("artery", "vein"):
+        assert scores[vessel]["dice"] > 0.8
+        assert scores[vessel]["mean_surface_distance_mm"] < PIXEL_MM
 
 
 def test_demo_refuses_bad_settings_in_one_line(tmp_path: Path) -> None:
@@ -183,6 +183,7 @@ def test_demo_refuses_bad_settings_in_one_line(tmp_path: Path) -> None:
         (("--seeds", "1"), "--seeds"),
         (("--phantom", "nosuch"), "--phantom"),
         (("--scanner", "nosuch"), "--scanner"),
+        (("--force", "25"), "--force"),
     ):
         done = resus("demo", "--out", tmp_path / "o", *args, timeout=60)
         assert done.returncode == 2 and fragment in done.stderr, done.stderr
