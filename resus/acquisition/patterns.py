@@ -203,6 +203,11 @@ class LinearPattern(SweepPattern):
         if not (np.isfinite(self.length) and self.length > 0):
             raise ResusError(f"LinearPattern.length must be positive, got {self.length}")
 
+    @property
+    def middle(self) -> np.ndarray:
+        """(x, y) of the sweep's midpoint on the phantom's top plane (m)."""
+        return np.asarray(self.start, dtype=np.float64) + self.length / 2 * self.heading[:2]
+
     def trajectory(self, phantom: Phantom, phantom_to_base: np.ndarray) -> Trajectory:
         start = np.asarray(self.start, dtype=np.float64)
         xy = _straight(start, start + self.length * self.heading[:2])

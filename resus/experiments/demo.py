@@ -104,13 +104,13 @@ class DemoSettings:
         """One sweep per subject, moved across to centre on the subject's artery and vein at
         its middle (`vessel_midline`), as a sonographer places the probe."""
         from resus.acquisition.simulation import phantom_spec, resolve_scene
-        from resus.experiments.sim2real import vessel_midline
+        from resus.experiments.vessel_targets import vessel_midline
 
-        nominal = self.scan_settings().sweep
-        middle = np.asarray(nominal.start) + nominal.length / 2 * nominal.heading[:2]
+        settings = self.scan_settings()
+        nominal, middle = settings.sweep, settings.sweep.middle
         scans = []
         for subject in self.subjects:
-            spec = phantom_spec(resolve_scene("default", self.phantom, subject))
+            spec = phantom_spec(resolve_scene(settings.scene, settings.phantom, subject))
             shift = vessel_midline(spec, float(middle[1])) - middle[0]
             start = (float(nominal.start[0] + shift), nominal.start[1])
             sweep = dataclasses.replace(nominal, start=start)

@@ -44,6 +44,7 @@ import torch
 from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError, check_choice
 from resus.execution import Executor, Resources, make_executor
+from resus.experiments.vessel_targets import vessel_depth
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.evaluate import Evaluation, score_labels
 from resus.segmentation.folders import FolderImages
@@ -515,39 +516,6 @@ def subject_sweep(settings: Sim2RealSettings, subject: int, seed: int) -> Linear
     )
 
 
-def _vessel_crossings(spec: PhantomSpec, y: float) -> list[tuple[int, np.ndarray, float]]:
-    """(label, centre, radius) of each artery and vein tube where it crosses the transverse
-    plane at `y` (its nearest centreline node)."""
-    from sim.phantom.centreline import sample_tube
-
-    crossings = []
-    for vessel in spec.vessels:
-        tube = sample_tube(vessel)
-        if vessel.label and tube.nodes[:, 1].min() <= y <= tube.nodes[:, 1].max():
-            nearest = int(np.argmin(np.abs(tube.nodes[:, 1] - y)))
-            crossings.append((vessel.label, tube.nodes[nearest], float(tube.radii[nearest])))
-    if not crossings:
-        raise ResusError(f"phantom {spec.name!r} has no vessel crossing y = {y:.3f} m")
-    return crossings
-
-
-def vessel_depth(spec: PhantomSpec, y: float) -> float:
-    """Mean depth (m, below the phantom's top line) of the centres of the artery and vein
-    tubes that cross the transverse plane at `y`: where a sonographer looks for them."""
-    return float(np.mean([-centre[2] for _, centre, _ in _vessel_crossings(spec, y)]))
-
-
-def vessel_midline(spec: PhantomSpec, y: float) -> float:
-    """Lateral position (m, phantom x) a sonographer centres the probe on at `y`: midway
-    between the widest artery and the widest vein crossing that plane (one of them alone
-    where only one crosses), so both are in view and side branches do not pull it aside."""
-    widest: dict[int, tuple[float, float]] = {}
-    for label, centre, radius in _vessel_crossings(spec, y):
-        if label not in widest or radius > widest[label][0]:
-            widest[label] = (radius, float(centre[0]))
-    return float(np.mean([x for _, x in widest.values()]))
-
-
 def subject_preset(
     settings: Sim2RealSettings, spec: PhantomSpec, subject: int, seed: int
 ) -> ScannerPreset | None:
@@ -560,11 +528,10 @@ def subject_preset(
     if preset is None or settings.target_depth_fraction is None:
         return preset
     sweep = subject_sweep(settings, subject, seed)
-    middle = np.asarray(sweep.start) + sweep.length / 2 * sweep.heading[:2]
     fraction = np.random.default_rng([seed, subject, 0xDE97]).uniform(
         *settings.target_depth_fraction
     )
-    depth = vessel_depth(spec, float(middle[1])) / fraction
+    depth = vessel_depth(spec, float(sweep.middle[1])) / fraction
     return preset.at_depth(float(np.clip(depth, *RANDOM_RANGES["depth"])))
 
 

@@ -33,10 +33,9 @@ from resus.experiments.sim2real import (
     subject_preset,
     subject_sweep,
     sweep_provenance,
-    vessel_depth,
-    vessel_midline,
 )
 from resus.experiments.sim2real_report import pretraining_verdict
+from resus.experiments.vessel_targets import vessel_depth, vessel_midline
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.folders import read_folders
 from resus.segmentation.trained_model import load_model
