@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+import numba
 import numpy as np
 
 PASCAL_PER_MMHG = 133.322
@@ -141,16 +142,30 @@ def perimeter_keeping_major(minor: float) -> float:
     return 0.5 * (low + high)
 
 
-def _corner_stress(a: np.ndarray, b: np.ndarray, z: np.ndarray) -> np.ndarray:
+@numba.njit(cache=True)
+def _corner_stress(a: float, b: float, z: float) -> float:
     """Vertical stress per unit surface pressure at depth z under the corner of an a x b
     rectangle (Newmark's closed form of Boussinesq's integral); signed by a and b so that
     rectangles can be superposed."""
-    m, n = np.abs(a) / z, np.abs(b) / z
+    m, n = abs(a) / z, abs(b) / z
     m2, n2 = m * m, n * n
-    root = np.sqrt(m2 + n2 + 1.0)
+    root = math.sqrt(m2 + n2 + 1.0)
     first = 2.0 * m * n * root / (m2 + n2 + m2 * n2 + 1.0) * (m2 + n2 + 2.0) / (m2 + n2 + 1.0)
-    second = np.arctan2(2.0 * m * n * root, m2 + n2 + 1.0 - m2 * n2)
-    return np.sign(a) * np.sign(b) * (first + second) / (4.0 * np.pi)
+    second = math.atan2(2.0 * m * n * root, m2 + n2 + 1.0 - m2 * n2)
+    return np.sign(a) * np.sign(b) * (first + second) / (4.0 * math.pi)
+
+
+@numba.njit(cache=True)
+def _face_stress(x: np.ndarray, y: np.ndarray, z: np.ndarray, half_w: float, half_l: float):
+    """`face_stress_fraction` on flat arrays: the four corner rectangles' sum per point."""
+    out = np.empty(x.shape[0])
+    for p in range(x.shape[0]):
+        total = 0.0
+        for sx in (-1.0, 1.0):
+            for sy in (-1.0, 1.0):
+                total += _corner_stress(half_w + sx * x[p], half_l + sy * y[p], z[p])
+        out[p] = total
+    return out
 
 
 def face_stress_fraction(
@@ -163,16 +178,12 @@ def face_stress_fraction(
     """Vertical stress at (x, y, depth z) under a `width` x `length` face centred at the
     origin, as a fraction of the mean contact pressure on the face: 1 just under the face,
     falling with depth and outside its footprint."""
-    x, y, z = (np.asarray(v, dtype=np.float64) for v in (x, y, z))
+    x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (x, y, z)))
     if not (z > 0).all():
         raise ValueError(f"depths must be positive, got {z}")
-    half_w, half_l = width / 2.0, length / 2.0
-    corners = [
-        _corner_stress(half_w + sx * x, half_l + sy * y, z)
-        for sx in (-1.0, 1.0)
-        for sy in (-1.0, 1.0)
-    ]
-    return np.sum(corners, axis=0)
+    flat_x, flat_y, flat_z = (np.ascontiguousarray(v).ravel() for v in (x, y, z))
+    stress: np.ndarray = _face_stress(flat_x, flat_y, flat_z, width / 2.0, length / 2.0)
+    return stress.reshape(x.shape)
 
 
 def tissue_shift(
@@ -200,9 +211,20 @@ def undeformed_depths(depths: np.ndarray, indentation: float, length: float) -> 
     indentation = min(indentation, MAX_COMPRESSION_STRAIN * length)
     if indentation <= 0:
         return depths.copy()
-    undeformed = depths + 0.0
-    for _ in range(8):
-        decay = indentation * np.exp(-undeformed / length)
-        residual = undeformed - indentation + decay - depths
-        undeformed = undeformed - residual / (1.0 - decay / length)
-    return undeformed
+    return _invert_compression(np.ascontiguousarray(depths).ravel(), indentation, length).reshape(
+        depths.shape
+    )
+
+
+@numba.njit(cache=True)
+def _invert_compression(depths: np.ndarray, indentation: float, length: float) -> np.ndarray:
+    """Newton's method for `undeformed_depths`, per depth, from D = depth (eight steps)."""
+    out = np.empty(depths.shape[0])
+    for p in range(depths.shape[0]):
+        undeformed = depths[p]
+        for _ in range(8):
+            decay = indentation * math.exp(-undeformed / length)
+            residual = undeformed - indentation + decay - depths[p]
+            undeformed = undeformed - residual / (1.0 - decay / length)
+        out[p] = undeformed
+    return out

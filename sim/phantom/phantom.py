@@ -20,7 +20,8 @@ from sim.phantom.spec import ARTERY, VEIN, Material, PhantomSpec, VesselSpec
 from sim.phantom.tube_index import DEFAULT_CELL_SIZE, TubeIndex
 
 VESSEL_SEARCH_RADIUS = 5.0e-3
-"""Beyond this distance from every vessel surface, `TissueSample.vessel_distance` is +inf (m)."""
+"""The default of `Phantom.sample`'s `search_radius`: beyond this distance from every vessel
+surface, `TissueSample.vessel_distance` is +inf (m)."""
 MESH_NAMES = ("artery", "vein", "body", "bone")
 
 
@@ -35,7 +36,8 @@ class TissueSample:
     depth: np.ndarray
     """(N,) depth below the skin along its normal (m), negative in air."""
     vessel_distance: np.ndarray
-    """(N,) signed distance to the nearest vessel surface (negative inside), +inf beyond 5 mm."""
+    """(N,) signed distance to the nearest vessel surface (negative inside), +inf beyond the
+    search radius (`VESSEL_SEARCH_RADIUS` unless the query set one)."""
     vessel_normal: np.ndarray
     """(N, 3) outward unit normal of that nearest vessel surface; zeros if none."""
     vessel_index: np.ndarray
@@ -81,11 +83,18 @@ class Phantom:
         self._muscle_index = len(spec.layers) + 1 + len(bone) + len(node) if spec.muscles else -1
         self._body_kind, self._body_params = body_shape.body_parameters(spec.body)
         self._layer_bottoms = np.cumsum([layer.thickness for layer in spec.layers[:-1]])
+        self._vessel_indexes: dict[float, TubeIndex] = {}
 
-    @cached_property
-    def _vessel_index(self) -> TubeIndex:
-        chain = SegmentChain.from_tubes(self.spec.vessels, list(range(len(self.spec.vessels))))
-        return TubeIndex.build(chain, VESSEL_SEARCH_RADIUS, self.cell_size)
+    def _vessel_index_within(self, search_radius: float) -> TubeIndex:
+        """The vessels' index for nearest-surface queries within `search_radius` (built once
+        per radius: a smaller radius keeps fewer candidates, and most cells none)."""
+        index = self._vessel_indexes.get(search_radius)
+        if index is None:
+            chain = SegmentChain.from_tubes(self.spec.vessels, list(range(len(self.spec.vessels))))
+            index = self._vessel_indexes[search_radius] = TubeIndex.build(
+                chain, search_radius, self.cell_size
+            )
+        return index
 
     def _inside_index(self, tubes: tuple[VesselSpec, ...]) -> TubeIndex:
         """An index that tells only whether a point is inside one of `tubes` (no search
@@ -124,7 +133,7 @@ class Phantom:
     def labels(self, points: np.ndarray) -> np.ndarray:
         """(N, 3) points to (N,) uint8 labels: 0 background or outside, 1 artery, 2 vein."""
         points = _as_points(points)
-        grid = self._vessel_index
+        grid = self._vessel_index_within(0.0)  # inside or not: no distances needed
         out = np.empty(len(points), np.uint8)
         label_points(
             points,
@@ -136,17 +145,26 @@ class Phantom:
         )
         return out
 
-    def sample(self, points: np.ndarray, out: TissueSample | None = None) -> TissueSample:
+    def sample(
+        self,
+        points: np.ndarray,
+        out: TissueSample | None = None,
+        search_radius: float = VESSEL_SEARCH_RADIUS,
+    ) -> TissueSample:
         """Label, material, depth and nearest vessel surface at (N, 3) points.
 
-        Pass `out` (e.g. `TissueSample.empty(N)`) to reuse its buffers across calls.
+        Pass `out` (e.g. `TissueSample.empty(N)`) to reuse its buffers across calls. The
+        nearest vessel surface is looked for within `search_radius` (m); a caller that needs
+        it only near the walls saves most of the search by asking for less.
         """
         points = _as_points(points)
         if out is None:
             out = TissueSample.empty(len(points))
         elif len(out) != len(points):
             raise ValueError(f"out holds {len(out)} points but {len(points)} were given")
-        vessels, bones = self._vessel_index, self._bone_index_grid
+        if not search_radius >= 0:
+            raise ValueError(f"search_radius must be >= 0, got {search_radius}")
+        vessels, bones = self._vessel_index_within(search_radius), self._bone_index_grid
         nodes, muscles = self._node_index_grid, self._muscle_index_grid
         sample_points(
             points,

@@ -328,48 +328,65 @@ def undeform_points(
     vessel, its centre's shift), then each cross-section map in turn (see the module
     docstring). `reach` (`column_reach`) lets most pixels skip the maps that cannot touch
     them (the vessels' rings cover a small part of an image); the points are the same."""
-    for n in numba.prange(points.shape[0]):
-        px, py, pz = points[n, 0], points[n, 1], points[n, 2]
-        col, down = n // rows, (n % rows) * row_height
-        shift = row_shift[n % rows]
-        for m in range(maps.shape[0]):  # a vessel moves rigidly with the tissue at its centre
-            row = maps[m]
-            centre_shift = row[18]
-            if not reach[m, col, 0] <= down <= reach[m, col, 1]:
-                continue  # the map's weight is 0 here
-            weight = _cross_section_weight(
-                px - row[0] - centre_shift * beam[0],
-                py - row[1] - centre_shift * beam[1],
-                pz - row[2] - centre_shift * beam[2],
-                row,
-            )
-            shift += weight * (centre_shift - shift)
-        qx = px - shift * beam[0]
-        qy = py - shift * beam[1]
-        qz = pz - shift * beam[2]
-        on_line = True  # q is still on the column's line, `down - shift` along it
-        for m in range(maps.shape[0]):
-            row = maps[m]
-            if on_line and not reach[m, col, 0] <= down - shift + row[18] <= reach[m, col, 1]:
-                continue
-            reached, ax, ay, az, rho, nu = _section_coordinates(
-                qx - row[0], qy - row[1], qz - row[2], row
-            )
-            if not reached or rho <= 0.0:
-                continue
-            radius, outer = row[12], row[15]
-            if nu <= 1.0:
-                scale = radius * nu / rho
-            else:
-                edge = rho / nu
-                scale = (radius + (rho - edge) * (outer - radius) / (outer - edge)) / rho
-            qx += (scale - 1.0) * ax
-            qy += (scale - 1.0) * ay
-            qz += (scale - 1.0) * az
-            on_line = False
-        points[n, 0] = qx
-        points[n, 1] = qy
-        points[n, 2] = qz
+    cols = points.shape[0] // rows
+    for col in numba.prange(cols):
+        for row in range(rows):
+            n = col * rows + row
+            _undeform_point(points, n, col, row * row_height, beam, row_shift[row], maps, reach)
+
+
+@numba.njit(cache=True, inline="always")
+def _undeform_point(
+    points: np.ndarray,
+    n: int,
+    col: int,
+    down: float,
+    beam: np.ndarray,
+    shift: float,
+    maps: np.ndarray,
+    reach: np.ndarray,
+) -> None:
+    """`undeform_points` for pixel `n` of column `col`, `down` along its line, whose row the
+    bulk compression moved by `shift`."""
+    px, py, pz = points[n, 0], points[n, 1], points[n, 2]
+    for m in range(maps.shape[0]):  # a vessel moves rigidly with the tissue at its centre
+        row = maps[m]
+        centre_shift = row[18]
+        if not reach[m, col, 0] <= down <= reach[m, col, 1]:
+            continue  # the map's weight is 0 here
+        weight = _cross_section_weight(
+            px - row[0] - centre_shift * beam[0],
+            py - row[1] - centre_shift * beam[1],
+            pz - row[2] - centre_shift * beam[2],
+            row,
+        )
+        shift += weight * (centre_shift - shift)
+    qx = px - shift * beam[0]
+    qy = py - shift * beam[1]
+    qz = pz - shift * beam[2]
+    on_line = True  # q is still on the column's line, `down - shift` along it
+    for m in range(maps.shape[0]):
+        row = maps[m]
+        if on_line and not reach[m, col, 0] <= down - shift + row[18] <= reach[m, col, 1]:
+            continue
+        reached, ax, ay, az, rho, nu = _section_coordinates(
+            qx - row[0], qy - row[1], qz - row[2], row
+        )
+        if not reached or rho <= 0.0:
+            continue
+        radius, outer = row[12], row[15]
+        if nu <= 1.0:
+            scale = radius * nu / rho
+        else:
+            edge = rho / nu
+            scale = (radius + (rho - edge) * (outer - radius) / (outer - edge)) / rho
+        qx += (scale - 1.0) * ax
+        qy += (scale - 1.0) * ay
+        qz += (scale - 1.0) * az
+        on_line = False
+    points[n, 0] = qx
+    points[n, 1] = qy
+    points[n, 2] = qz
 
 
 @numba.njit(cache=True, inline="always")

@@ -3,7 +3,8 @@
 `scan_lines` (one thread per column, i.e. per scan line, walking down it):
   tissue properties per pixel (vessel walls overriding the sampled material inside the wall
   band), round-trip attenuation accumulated down the line, transmission loss and a specular
-  echo at every impedance step (vessel-wall echoes weighted by the incidence angle), air after
+  echo at every impedance step (vessel-wall echoes weighted by the incidence angle on the
+  surface nearest the step's wall pixel, which runs parallel to the wall), air after
   tissue stopping the line, each specular echo's reverberation (see the function), optional
   side-lobe clutter (`lateral_clutter`, computed before: a share of the scatter power of the
   tissue beside each pixel); the reflectivity
@@ -75,14 +76,14 @@ def fast_log2(values: np.ndarray) -> np.ndarray:
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def grid_points(
     origin: np.ndarray, col_step: np.ndarray, row_step: np.ndarray, rows: int, out: np.ndarray
 ) -> None:
     """Phantom-frame pixel centres, column-major: `out[col * rows + row] = origin + col *
     col_step + row * row_step`."""
     cols = out.shape[0] // rows
-    for col in range(cols):
+    for col in numba.prange(cols):
         for row in range(rows):
             n = col * rows + row
             for axis in range(3):
@@ -238,11 +239,12 @@ def scan_lines(
                     z2 = impedance[m]
                     r = (z2 - z1) / (z2 + z1)
                     incidence = np.float32(1.0)
-                    if m == wall or previous == wall:
+                    if m == wall or previous == wall:  # the wall pixel's nearest surface
+                        w = n if m == wall else n - 1
                         cosine = abs(
-                            bx * vessel_normal[n, 0]
-                            + by * vessel_normal[n, 1]
-                            + bz * vessel_normal[n, 2]
+                            bx * vessel_normal[w, 0]
+                            + by * vessel_normal[w, 1]
+                            + bz * vessel_normal[w, 2]
                         )
                         incidence = np.float32(cosine**specular_exponent)
                     specular[row] = specular_gain * r * incidence * gain
@@ -384,19 +386,23 @@ def smooth_lines(
     half_axial = kernel_axial.shape[0] // 2
     half_lateral = kernel_lateral.shape[0] // 2
     for col in numba.prange(cols):
+        total_line = along[col]
+        weight_line = along_weight[col]
+        total_line[:] = 0.0
+        weight_line[:] = 0.0
+        if not contact[col]:
+            continue
+        imaged = np.empty(rows, dtype=np.float32)  # 1 on tissue, 0 in air
+        masked = np.empty(rows, dtype=np.float32)
         for row in range(rows):
-            total = np.float32(0.0)
-            weight_sum = np.float32(0.0)
-            if contact[col]:
-                low = max(0, half_axial - row)
-                high = min(kernel_axial.shape[0], rows - row + half_axial)
-                for t in range(low, high):
-                    source = row + t - half_axial
-                    if material[col * rows + source] >= 0:
-                        total += kernel_axial[t] * np.float32(lines[col, source])
-                        weight_sum += kernel_axial[t]
-            along[col, row] = total
-            along_weight[col, row] = weight_sum
+            imaged[row] = np.float32(1.0) if material[col * rows + row] >= 0 else np.float32(0.0)
+            masked[row] = imaged[row] * np.float32(lines[col, row])
+        for t in range(kernel_axial.shape[0]):  # adding 0 for air: the sums stay exact
+            weight = kernel_axial[t]
+            shift = t - half_axial
+            for row in range(max(0, -shift), min(rows, rows - shift)):
+                total_line[row] += weight * masked[row + shift]
+                weight_line[row] += weight * imaged[row + shift]
     for col in numba.prange(cols):
         if not contact[col]:
             out[col, :] = 0
@@ -419,7 +425,7 @@ def smooth_lines(
                 out[col, row] = np.uint8(min(value, np.float32(255.0)))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def transpose_pair(
     first: np.ndarray, second: np.ndarray, first_out: np.ndarray, second_out: np.ndarray
 ) -> None:
@@ -427,7 +433,7 @@ def transpose_pair(
     strided uint8 copy is several times slower)."""
     cols, rows = first.shape
     tile = 32
-    for tile_row in range((rows + tile - 1) // tile):
+    for tile_row in numba.prange((rows + tile - 1) // tile):
         row_end = min(rows, (tile_row + 1) * tile)
         for col_start in range(0, cols, tile):
             col_end = min(cols, col_start + tile)

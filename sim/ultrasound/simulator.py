@@ -50,6 +50,10 @@ NOISE_COMPONENT_RMS = 1.0 / math.sqrt(3.0)
 """RMS of a uniform [-1, 1] noise component (the hash gives uniform values)."""
 TEXTURE_KEY = 0x7E57
 """Mixed into the speckle seed for the texture field's seed, so the two are independent."""
+WALL_SEARCH_PAD = 1.0e-6
+"""How far past the thickest vessel wall (m) a frame asks the phantom for the nearest vessel
+surface: the image needs that surface only inside the wall band (the wall's echo and the
+angle of its specular steps), and the pad keeps a pixel exactly on the band's outer edge."""
 METRES_PER_CM = 0.01
 HZ_PER_MHZ = 1.0e6
 
@@ -113,6 +117,7 @@ class UltrasoundSimulator:
         self._wall_thickness = np.array([v.wall_thickness for v in spec.vessels], dtype=np.float64)
         if len(self._wall_thickness) == 0:
             self._wall_thickness = np.zeros(1)
+        self._vessel_search_radius = float(self._wall_thickness.max()) + WALL_SEARCH_PAD
         self._pulse = axial_pulse(probe, settings).astype(np.complex64)
         self._lateral = lateral_beam(probe, settings)
         offsets, weights = elevation_profile(probe, settings)
@@ -210,7 +215,9 @@ class UltrasoundSimulator:
                 frame.maps,
                 reach,
             )
-        sample = self.phantom.sample(self._points, out=self._sample)
+        sample = self.phantom.sample(
+            self._points, out=self._sample, search_radius=self._vessel_search_radius
+        )
         contact = self.contact(pose)
         if self._clutter_power > 0.0:
             lateral_clutter(

@@ -44,6 +44,25 @@ def test_vessel_distance_sign_and_normal_around_the_cfa(default_phantom: Phantom
     assert np.isinf(beyond.vessel_distance[0]) and beyond.vessel_index[0] == -1
 
 
+def test_a_smaller_search_radius_keeps_the_near_surfaces_exactly(default_phantom: Phantom) -> None:
+    rng = np.random.default_rng(3)
+    nodes = default_phantom.centrelines()["CFA"]
+    points = nodes[rng.integers(len(nodes), size=4000)] + rng.normal(0.0, 0.004, (4000, 3))
+    full = default_phantom.sample(points)
+    near = default_phantom.sample(points, search_radius=1.0e-3)
+    within = full.vessel_distance < 1.0e-3
+    assert 0.2 < within.mean() < 0.9
+    np.testing.assert_array_equal(near.vessel_distance[within], full.vessel_distance[within])
+    np.testing.assert_array_equal(near.vessel_normal[within], full.vessel_normal[within])
+    np.testing.assert_array_equal(near.vessel_index[within], full.vessel_index[within])
+    assert np.isinf(near.vessel_distance[~within]).all()
+    assert (near.vessel_index[~within] == -1).all()
+    for name in ("label", "material", "depth"):
+        np.testing.assert_array_equal(getattr(near, name), getattr(full, name))
+    with pytest.raises(ValueError, match="search_radius must be >= 0, got -1"):
+        default_phantom.sample(points, search_radius=-1.0)
+
+
 def test_leg_layers_follow_the_curved_skin(leg_phantom: Phantom) -> None:
     radius = leg_phantom.spec.body.radius
     names = [m.name for m in leg_phantom.materials]

@@ -188,3 +188,30 @@ def test_bad_pose_is_refused(simulator: UltrasoundSimulator) -> None:
     sheared = make_pose(np.diag([1.0, 2.0, 1.0]), np.zeros(3))
     with pytest.raises(ValueError, match="not rigid"):
         simulator.render(sheared)
+
+
+def test_frames_need_the_vessel_surfaces_only_inside_the_wall_band(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The simulator asks the phantom for the nearest vessel surface only within the thickest
+    wall (its echo and the angle of its steps need no more): asking within 5 mm instead gives
+    the same frames, rigid and pressed (where the vein's ring stretches the tissue)."""
+    from sim.ultrasound import simulator as simulator_module
+    from sim.ultrasound.deformation import TissueLoad
+
+    phantom = Phantom(load_phantom("femoral"))
+    probe = LinearProbe(rows=96, cols=80)
+    poses = [probe_pose_on_skin(phantom, x, y) for x, y in [(0.0, 0.0), (0.006, -0.02)]]
+    loads = [None, TissueLoad(12.0, 0.3)]
+    narrow = UltrasoundSimulator(phantom, probe)
+    monkeypatch.setattr(simulator_module, "WALL_SEARCH_PAD", 5.0e-3)
+    wide = UltrasoundSimulator(phantom, probe)
+    for pose in poses:
+        pressed = pose.copy()
+        pressed[:3, 3] += pose[:3, 2] * 0.004
+        for frame_pose, load in zip((pose, pressed), loads, strict=True):
+            image, labels = narrow.render(frame_pose, load)
+            wide_image, wide_labels = wide.render(frame_pose, load)
+            assert (labels > 0).any()
+            np.testing.assert_array_equal(image, wide_image)
+            np.testing.assert_array_equal(labels, wide_labels)
