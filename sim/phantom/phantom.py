@@ -90,29 +90,29 @@ class Phantom:
         per radius: a smaller radius keeps fewer candidates, and most cells none)."""
         index = self._vessel_indexes.get(search_radius)
         if index is None:
-            chain = SegmentChain.from_tubes(self.spec.vessels, list(range(len(self.spec.vessels))))
-            index = self._vessel_indexes[search_radius] = TubeIndex.build(
-                chain, search_radius, self.cell_size
+            index = self._vessel_indexes[search_radius] = self._tube_index(
+                self.spec.vessels, search_radius
             )
         return index
 
-    def _inside_index(self, tubes: tuple[VesselSpec, ...]) -> TubeIndex:
-        """An index that tells only whether a point is inside one of `tubes` (no search
-        radius: nothing needs the distance to a bone, node or muscle)."""
+    def _tube_index(self, tubes: tuple[VesselSpec, ...], search_radius: float) -> TubeIndex:
+        """An index over all of `tubes` for nearest-surface queries within `search_radius`
+        (0: it tells only whether a point is inside one of them)."""
         chain = SegmentChain.from_tubes(tubes, list(range(len(tubes))))
-        return TubeIndex.build(chain, 0.0, self.cell_size)
+        return TubeIndex.build(chain, search_radius, self.cell_size)
 
+    # Bones, nodes and muscles need no search radius: nothing needs the distance to them.
     @cached_property
     def _bone_index_grid(self) -> TubeIndex:
-        return self._inside_index(self.spec.bones)
+        return self._tube_index(self.spec.bones, 0.0)
 
     @cached_property
     def _node_index_grid(self) -> TubeIndex:
-        return self._inside_index(self.spec.nodes)
+        return self._tube_index(self.spec.nodes, 0.0)
 
     @cached_property
     def _muscle_index_grid(self) -> TubeIndex:
-        return self._inside_index(self.spec.muscles)
+        return self._tube_index(self.spec.muscles, 0.0)
 
     @cached_property
     def _class_indexes(self) -> dict[str, TubeIndex]:

@@ -10,6 +10,8 @@ import pytest
 
 from sim.phantom import ARTERY, VEIN, Phantom, load_phantom, make_subject
 from sim.transforms import make_pose
+from sim.ultrasound import simulator as simulator_module
+from sim.ultrasound.deformation import TissueLoad
 from sim.ultrasound.probe import LinearProbe
 from sim.ultrasound.settings import UltrasoundSettings
 from sim.ultrasound.simulator import UltrasoundSimulator
@@ -196,9 +198,6 @@ def test_frames_need_the_vessel_surfaces_only_inside_the_wall_band(
     """The simulator asks the phantom for the nearest vessel surface only within the thickest
     wall (its echo and the angle of its steps need no more): asking within 5 mm instead gives
     the same frames, rigid and pressed (where the vein's ring stretches the tissue)."""
-    from sim.ultrasound import simulator as simulator_module
-    from sim.ultrasound.deformation import TissueLoad
-
     phantom = Phantom(load_phantom("femoral"))
     probe = LinearProbe(rows=96, cols=80)
     poses = [probe_pose_on_skin(phantom, x, y) for x, y in [(0.0, 0.0), (0.006, -0.02)]]
