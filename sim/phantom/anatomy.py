@@ -90,6 +90,19 @@ class FemoralAnatomy:
     """Typical radius of a belly's cross-section; each is drawn within +-30 % of it."""
     muscle_seed: float = 0.0
     """Seed (its whole part) of where the bellies lie and how they run."""
+    nerve_count: float = 0.0
+    """1 for a femoral nerve lateral to the artery, 0 for none (its whole part)."""
+    nerve_lobes: float = 3.0
+    """Fascicle groups side by side across the nerve (its whole part, at least 1): the nerve
+    is their union, a flat oval wider than it is deep."""
+    nerve_radius: float = 0.0018
+    """Radius of one fascicle group's round cross-section."""
+    nerve_gap: float = 0.006
+    """Fat between the artery's outer wall and the nerve's medial edge."""
+    nerve_drop: float = 0.004
+    """How much deeper the nerve's centre lies than the artery's."""
+    nerve_seed: float = 0.0
+    """Seed (its whole part) of how the fascicles are packed inside the nerve."""
 
 
 def _smoothstep(t: np.ndarray) -> np.ndarray:
@@ -252,6 +265,91 @@ def build_muscles(
         points[:, 2] = -np.maximum(-middle[:, 2] + offset_depth, radius + MUSCLE_COVER)
         muscles.append(VesselSpec(f"muscle{k}", 0, points, np.full(len(y), radius)))
     return tuple(muscles)
+
+
+NERVE_DIVISION = 0.010
+"""How far past the artery's bifurcation the nerve's trunk runs (m): a few centimetres below
+the inguinal ligament it divides into small branches, about where the deep femoral artery
+leaves; the phantom ends it there."""
+NERVE_LOBE_SPACING = 1.3
+"""Centre spacing of neighbouring fascicle groups, in group radii: they overlap into one oval."""
+FASCICLE_RADII = (0.0003, 0.0008)
+"""Range of a fascicle's radius (m): 0.6-1.6 mm across, the dark dots a groin image resolves."""
+EPINEURIUM = 0.00015
+"""Least epineurium between a fascicle and the nerve's surface, and between two fascicles (m)."""
+FASCICLE_FILL = 0.4
+"""Fraction of the nerve's cross-section the fascicles fill (packing stops there)."""
+FASCICLE_TRIES = 400
+"""Candidate positions drawn per nerve while packing its fascicles."""
+
+
+@dataclass(frozen=True)
+class FemoralNerve:
+    """The femoral nerve: fascicle groups (`lobes`, whose union is the hyperechoic epineurium)
+    and the hypoechoic `fascicles` inside them, the "honeycomb" of a nerve in cross-section."""
+
+    lobes: tuple[VesselSpec, ...] = ()
+    fascicles: tuple[VesselSpec, ...] = ()
+
+
+def _fascicle_offsets(
+    lobe_centres: np.ndarray, lobe_radius: float, rng: np.random.Generator
+) -> list[tuple[float, float, float]]:
+    """(lateral offset, depth offset, radius) of fascicles packed at random inside the union of
+    discs of `lobe_radius` about `lobe_centres` (lateral offsets, depth 0), each clear of the
+    surface and of the others by `EPINEURIUM`, until they fill `FASCICLE_FILL` of it."""
+    lobe_area = math.pi * lobe_radius**2 * len(lobe_centres)  # overlaps make this an upper bound
+    low, high = lobe_centres.min() - lobe_radius, lobe_centres.max() + lobe_radius
+    placed: list[tuple[float, float, float]] = []
+    filled = 0.0
+    for _ in range(FASCICLE_TRIES):
+        if filled >= FASCICLE_FILL * lobe_area:
+            break
+        radius = rng.uniform(*FASCICLE_RADII)
+        u, v = rng.uniform(low, high), rng.uniform(-lobe_radius, lobe_radius)
+        room = lobe_radius - np.hypot(u - lobe_centres, v).min()
+        if room < radius + EPINEURIUM:
+            continue
+        if any(math.hypot(u - pu, v - pv) < radius + pr + EPINEURIUM for pu, pv, pr in placed):
+            continue
+        placed.append((u, v, radius))
+        filled += math.pi * radius**2
+    return placed
+
+
+def build_nerve(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> FemoralNerve:
+    """The femoral nerve (none if `nerve_count` < 1): `nerve_lobes` fascicle groups side by side
+    lateral to the artery, `nerve_gap` from its wall and `nerve_drop` deeper (below the top
+    line, like the vessels' depths), following its sway and dip along the leg from the body's
+    proximal end to `NERVE_DIVISION` past the bifurcation; fascicles packed inside by
+    `nerve_seed`. In the groin the nerve lies on the iliopsoas under the fascia iliaca, outside
+    the femoral sheath, a little deeper than the artery; the phantom's fasciae are sheets at
+    fixed depths, so the nerve keeps to the artery rather than to a sheet (`make_subject` leaves
+    out a nerve in a vessel's way)."""
+    from sim.phantom.spec import VesselSpec
+
+    a = anatomy
+    if int(a.nerve_count) < 1:
+        return FemoralNerve()
+    if int(a.nerve_lobes) < 1:
+        raise ValueError(f"nerve_lobes must be >= 1, got {a.nerve_lobes}")
+    rng = np.random.default_rng([int(a.nerve_seed), 0xF5E7])
+    division = min(a.bifurcation_y + NERVE_DIVISION, body.extent_y / 2)
+    y = _stations(-body.extent_y / 2, division, 2 * CONTROL_STEP)
+    artery = _Course(a, lateral, -body.extent_y / 2).artery(y)
+    reach = max(a.cfa_radius, a.sfa_radius) + a.artery_wall + a.nerve_gap + a.nerve_radius
+    centres = reach + NERVE_LOBE_SPACING * a.nerve_radius * np.arange(int(a.nerve_lobes))
+
+    def tube(name: str, offset: float, depth_offset: float, radius: float) -> VesselSpec:
+        points = artery + np.array([lateral * offset, 0.0, -(a.nerve_drop + depth_offset)])
+        return VesselSpec(name, 0, points, np.full(len(y), radius))
+
+    lobes = tuple(tube(f"nerve{k}", c, 0.0, a.nerve_radius) for k, c in enumerate(centres))
+    fascicles = tuple(
+        tube(f"fascicle{k}", u, v, r)
+        for k, (u, v, r) in enumerate(_fascicle_offsets(centres, a.nerve_radius, rng))
+    )
+    return FemoralNerve(lobes, fascicles)
 
 
 def build_bones(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> tuple[VesselSpec, ...]:

@@ -1,12 +1,13 @@
 """Phantom specs from YAML files (`assets/phantoms/NAME.yaml` or any path).
 
 A spec gives the body, tissue layers (outermost first; the last one, without a thickness,
-fills the rest), blood/wall/bone (and lymph node, muscle) materials, and either `anatomy`
-(parameters of `FemoralAnatomy`, from which the femoral vessels, an optional femur, lymph nodes
-and muscle bellies are built) or explicit `vessels` and `bones` lists (name, label,
-control_points, radii, wall_thickness); or `extends: NAME` and only what differs from that spec.
-`mechanics` (optional) makes the tissue deform under the probe (`TissueMechanics`). `variation`
-holds the subject generator's ranges. Every problem is reported as one ValueError naming the file.
+fills the rest), blood/wall/bone (and lymph node, muscle, nerve, fascicle) materials, and
+either `anatomy` (parameters of `FemoralAnatomy`, from which the femoral vessels, an optional
+femur, lymph nodes, muscle bellies and the femoral nerve are built) or explicit `vessels` and
+`bones` lists (name, label, control_points, radii, wall_thickness); or `extends: NAME` and
+only what differs from that spec. `mechanics` (optional) makes the tissue deform under the
+probe (`TissueMechanics`). `variation` holds the subject generator's ranges. Every problem is
+reported as one ValueError naming the file.
 """
 
 from __future__ import annotations
@@ -21,8 +22,10 @@ import yaml
 from sim.assets import assets_dir
 from sim.phantom.anatomy import (
     FemoralAnatomy,
+    FemoralNerve,
     build_bones,
     build_muscles,
+    build_nerve,
     build_nodes,
     build_vessels,
 )
@@ -43,8 +46,8 @@ ANATOMY_KEYS = tuple(f.name for f in dataclasses.fields(FemoralAnatomy))
 MECHANICS_KEYS = TissueMechanics.keys()
 TOP_KEYS = {
     "name", "description", "side", "seed", "noise_level", "body", "layers", "blood", "wall",
-    "bone", "node", "muscle", "anatomy", "vessels", "bones", "variation", "texture_scale",
-    "mechanics",
+    "bone", "node", "muscle", "nerve", "fascicle", "anatomy", "vessels", "bones", "variation",
+    "texture_scale", "mechanics",
 }  # fmt: skip
 MATERIAL_KEYS = ("name", "echogenicity", "attenuation_db_cm_mhz", "impedance_mrayl")
 TEXTURE_KEYS = ("texture_variation", "texture_ridges")
@@ -162,23 +165,25 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
     lateral = {"right": 1.0, "left": -1.0}.get(side)
     if lateral is None:
         raise ValueError(f"side must be right or left, got {side!r}")
-    body = _body(data["body"])
-    anatomy = None
+    body, layers = _body(data["body"]), _layers(data["layers"])
+    anatomy, nerve = None, FemoralNerve()
     if "anatomy" in data:
         anatomy = FemoralAnatomy(**_mapping(data["anatomy"], "anatomy", ANATOMY_KEYS))
         vessels = build_vessels(anatomy, body, lateral)
         bones = build_bones(anatomy, body, lateral)
         nodes = build_nodes(anatomy, body, lateral)
         muscles = build_muscles(anatomy, body, lateral)
+        nerve = build_nerve(anatomy, body, lateral)
     else:
         nodes, muscles = (), ()
         vessels, bones = _tubes(data["vessels"], "vessels"), _tubes(data.get("bones", []), "bones")
     bone, node, muscle = data.get("bone"), data.get("node"), data.get("muscle")
+    nerve_material, fascicle = data.get("nerve"), data.get("fascicle")
     return PhantomSpec(
         name=str(data["name"]),
         side=side,
         body=body,
-        layers=_layers(data["layers"]),
+        layers=layers,
         blood=_material(data["blood"], "blood"),
         wall=_material(data["wall"], "wall"),
         bone=None if bone is None else _material(bone, "bone"),
@@ -188,6 +193,10 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         nodes=nodes,
         muscle=None if muscle is None else _material(muscle, "muscle"),
         muscles=muscles,
+        nerve=None if nerve_material is None else _material(nerve_material, "nerve"),
+        nerves=nerve.lobes,
+        fascicle=None if fascicle is None else _material(fascicle, "fascicle"),
+        fascicles=nerve.fascicles,
         noise_level=float(data.get("noise_level", 0.2)),
         texture_scale=_texture_scale(data.get("texture_scale", list(DEFAULT_TEXTURE_SCALE))),
         seed=int(data.get("seed", 0)),

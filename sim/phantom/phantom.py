@@ -18,6 +18,7 @@ from sim.phantom.meshing import body_mesh, tube_mesh
 from sim.phantom.sample_kernels import label_points, sample_points
 from sim.phantom.spec import ARTERY, VEIN, Material, PhantomSpec, VesselSpec
 from sim.phantom.tube_index import DEFAULT_CELL_SIZE, TubeIndex
+from sim.phantom.tube_kernels import Grid
 
 VESSEL_SEARCH_RADIUS = 5.0e-3
 """The default of `Phantom.sample`'s `search_radius`: beyond this distance from every vessel
@@ -72,15 +73,22 @@ class Phantom:
     def __init__(self, spec: PhantomSpec, cell_size: float = DEFAULT_CELL_SIZE) -> None:
         self.spec = spec
         self.cell_size = cell_size
-        bone = () if spec.bone is None else (spec.bone,)
-        node = () if spec.node is None else (spec.node,)
-        muscle = () if spec.muscle is None else (spec.muscle,)
-        self.materials: tuple[Material, ...] = (*spec.layers, spec.blood, *bone, *node, *muscle)
+        structures = {  # tissue inside tubes that carry no label, in order of their materials
+            "bone": (spec.bone, spec.bones),
+            "node": (spec.node, spec.nodes),
+            "muscle": (spec.muscle, spec.muscles),
+            "nerve": (spec.nerve, spec.nerves),
+            "fascicle": (spec.fascicle, spec.fascicles),
+        }
+        materials: list[Material] = [*spec.layers, spec.blood]
         self._blood_index = len(spec.layers)
-        self._bone_index = len(spec.layers) + 1 if bone else -1
         # -1 where there are no tubes of a kind: the sampling kernel then skips their lookup
-        self._node_index = len(spec.layers) + 1 + len(bone) if spec.nodes else -1
-        self._muscle_index = len(spec.layers) + 1 + len(bone) + len(node) if spec.muscles else -1
+        self._structure_material: dict[str, int] = {}
+        for kind, (material, tubes) in structures.items():
+            if material is not None:
+                materials.append(material)
+            self._structure_material[kind] = len(materials) - 1 if tubes else -1
+        self.materials: tuple[Material, ...] = tuple(materials)
         self._body_kind, self._body_params = body_shape.body_parameters(spec.body)
         self._layer_bottoms = np.cumsum([layer.thickness for layer in spec.layers[:-1]])
         self._vessel_indexes: dict[float, TubeIndex] = {}
@@ -101,18 +109,23 @@ class Phantom:
         chain = SegmentChain.from_tubes(tubes, list(range(len(tubes))))
         return TubeIndex.build(chain, search_radius, self.cell_size)
 
-    # Bones, nodes and muscles need no search radius: nothing needs the distance to them.
     @cached_property
-    def _bone_index_grid(self) -> TubeIndex:
-        return self._tube_index(self.spec.bones, 0.0)
-
-    @cached_property
-    def _node_index_grid(self) -> TubeIndex:
-        return self._tube_index(self.spec.nodes, 0.0)
-
-    @cached_property
-    def _muscle_index_grid(self) -> TubeIndex:
-        return self._tube_index(self.spec.muscles, 0.0)
+    def _structure_grids(self) -> dict[str, tuple[Grid, np.ndarray]]:
+        """Per kind of unlabelled structure, its kernel grid and the mark (1) of each segment.
+        They need no search radius: nothing needs the distance to them, only inside or not."""
+        spec = self.spec
+        tubes = {
+            "bone": spec.bones,
+            "node": spec.nodes,
+            "muscle": spec.muscles,
+            "nerve": spec.nerves,
+            "fascicle": spec.fascicles,
+        }
+        grids = {}
+        for kind, members in tubes.items():
+            index = self._tube_index(members, 0.0)
+            grids[kind] = (index.kernel_grid(), np.ones(len(index.chain), np.uint8))
+        return grids
 
     @cached_property
     def _class_indexes(self) -> dict[str, TubeIndex]:
@@ -164,27 +177,28 @@ class Phantom:
             raise ValueError(f"out holds {len(out)} points but {len(points)} were given")
         if not search_radius >= 0:
             raise ValueError(f"search_radius must be >= 0, got {search_radius}")
-        vessels, bones = self._vessel_index_within(search_radius), self._bone_index_grid
-        nodes, muscles = self._node_index_grid, self._muscle_index_grid
+        vessels, grids = self._vessel_index_within(search_radius), self._structure_grids
+        material = self._structure_material
         sample_points(
             points,
             self._body_kind,
             self._body_params,
             self._layer_bottoms,
             self._blood_index,
-            self._bone_index,
-            self._node_index,
-            self._muscle_index,
             vessels.kernel_grid(),
             vessels.chain.tube,
             vessels.chain.label,
             vessels.cutoff,
-            bones.kernel_grid(),
-            np.ones(len(bones.chain), np.uint8),
-            nodes.kernel_grid(),
-            np.ones(len(nodes.chain), np.uint8),
-            muscles.kernel_grid(),
-            np.ones(len(muscles.chain), np.uint8),
+            material["bone"],
+            *grids["bone"],
+            material["node"],
+            *grids["node"],
+            material["muscle"],
+            *grids["muscle"],
+            material["nerve"],
+            *grids["nerve"],
+            material["fascicle"],
+            *grids["fascicle"],
             out.label,
             out.material,
             out.depth,

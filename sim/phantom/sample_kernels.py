@@ -54,19 +54,25 @@ def sample_points(
     body_params,
     layer_bottoms,
     blood_index,
-    bone_index,
-    node_index,
-    muscle_index,
     vessels,
     segment_tube,
     segment_label,
     cutoff,
+    bone_index,
     bones,
-    bone_label,
+    bone_mark,
+    node_index,
     nodes,
-    node_label,
+    node_mark,
+    muscle_index,
     muscles,
-    muscle_label,
+    muscle_mark,
+    nerve_index,
+    nerves,
+    nerve_mark,
+    fascicle_index,
+    fascicles,
+    fascicle_mark,
     label,
     material,
     depth,
@@ -76,10 +82,11 @@ def sample_points(
 ):
     """Everything the ultrasound needs per point, written into the output arrays.
 
-    `vessels`, `bones`, `nodes` and `muscles` are `tube_kernels.Grid`s; the vessels' within
-    `cutoff`. A point in a vessel's lumen is blood, else in bone bone, else in a lymph node node,
-    else in a muscle belly muscle, else the layer at its depth (a material index of -1 means
-    none of that kind exists).
+    `vessels` and the structures (`bones` ... `fascicles`) are `tube_kernels.Grid`s, the
+    vessels' within `cutoff`; each structure's `*_mark` is 1 per segment. A point in a vessel's
+    lumen is blood, else in bone bone, else in a lymph node node, else in the nerve nerve (or
+    fascicle, in one of its fascicles), else in a muscle belly muscle, else the layer at its
+    depth (a material index of -1 means none of that kind exists).
     """
     for p in prange(points.shape[0]):
         x, y, z = points[p, 0], points[p, 1], points[p, 2]
@@ -106,9 +113,13 @@ def sample_points(
                 while layer < layer_bottoms.shape[0] and depth[p] > layer_bottoms[layer]:
                     layer += 1
                 material[p] = layer
-                if bone_index >= 0 and inside_label(x, y, z, bones, bone_label) > 0:
+                if bone_index >= 0 and inside_label(x, y, z, bones, bone_mark) > 0:
                     material[p] = bone_index
-                elif node_index >= 0 and inside_label(x, y, z, nodes, node_label) > 0:
+                elif node_index >= 0 and inside_label(x, y, z, nodes, node_mark) > 0:
                     material[p] = node_index
-                elif muscle_index >= 0 and inside_label(x, y, z, muscles, muscle_label) > 0:
+                elif nerve_index >= 0 and inside_label(x, y, z, nerves, nerve_mark) > 0:
+                    material[p] = nerve_index
+                    if fascicle_index >= 0 and inside_label(x, y, z, fascicles, fascicle_mark) > 0:
+                        material[p] = fascicle_index
+                elif muscle_index >= 0 and inside_label(x, y, z, muscles, muscle_mark) > 0:
                     material[p] = muscle_index

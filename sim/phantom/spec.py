@@ -102,8 +102,8 @@ class VesselSpec:
 
     The spline is scipy's `CubicSpline` (not-a-knot ends) over the cumulative chord length of the
     control points; the radius is interpolated linearly in that parameter. `label` is 1 (artery)
-    or 2 (vein); bones, lymph nodes and muscle bellies use label 0. `wall_thickness` is the
-    echogenic wall outside the lumen.
+    or 2 (vein); bones, lymph nodes, muscle bellies and nerves use label 0. `wall_thickness` is
+    the echogenic wall outside the lumen.
     """
 
     name: str
@@ -175,6 +175,14 @@ class PhantomSpec:
     """Skeletal muscle (hypoechoic, with bright perimysium); its bellies carry label 0."""
     muscles: tuple[VesselSpec, ...] = ()
     """Muscle bellies beside and beneath the vessels: large dark shapes that are not vessels."""
+    nerve: Material | None = None
+    """The nerve's epineurium (hyperechoic); its tubes carry label 0."""
+    nerves: tuple[VesselSpec, ...] = ()
+    """The femoral nerve's fascicle groups (`FemoralNerve.lobes`): their union is the nerve."""
+    fascicle: Material | None = None
+    """A nerve fascicle (hypoechoic): the dark cells of the nerve's honeycomb."""
+    fascicles: tuple[VesselSpec, ...] = ()
+    """Fascicles; a point is fascicle only inside the nerve (its epineurium wraps them)."""
     noise_level: float = 0.2
     texture_scale: tuple[float, float, float] = DEFAULT_TEXTURE_SCALE
     """Lattice spacing (m) of the texture fields along x, y, z: lobules and fascicles are
@@ -202,6 +210,10 @@ class PhantomSpec:
             raise ValueError("lymph nodes are given but no node material")
         if self.muscles and self.muscle is None:
             raise ValueError("muscle bellies are given but no muscle material")
+        if self.nerves and self.nerve is None:
+            raise ValueError("a nerve is given but no nerve material")
+        if self.fascicles and (self.fascicle is None or not self.nerves):
+            raise ValueError("fascicles need a fascicle material and a nerve to lie in")
         if not self.noise_level >= 0:
             raise ValueError(f"noise_level must be >= 0, got {self.noise_level}")
         if len(self.texture_scale) != 3 or not min(self.texture_scale) > 0:

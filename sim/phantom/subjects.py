@@ -4,9 +4,10 @@ Subject k draws every quantity in `spec.variation.ranges` uniformly, from a gene
 by `(spec.seed, k)`, rebuilds the vessels, and keeps the draw only if the vessels fit: artery
 and vein walls at least `min_gap` apart, vessels clear of the bone, and covered by at least
 `min_gap` of tissue inside the body. Otherwise it draws again (same generator), so subject k
-is always the same phantom. Lymph nodes and muscle bellies closer than `min_gap` to a vessel
-are left out. The tissue mechanics' ranges and the muscle bellies' are each drawn from a
-generator of their own, so that adding them kept every earlier subject's anatomy.
+is always the same phantom. Lymph nodes, muscle bellies and a femoral nerve closer than
+`min_gap` to a vessel are left out. The tissue mechanics', the muscle bellies' and the nerve's
+ranges are each drawn from a generator of their own, so that adding them kept every earlier
+subject's anatomy.
 """
 
 from __future__ import annotations
@@ -16,7 +17,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.phantom.anatomy import build_bones, build_muscles, build_nodes, build_vessels
+from sim.phantom.anatomy import (
+    FemoralNerve,
+    build_bones,
+    build_muscles,
+    build_nerve,
+    build_nodes,
+    build_vessels,
+)
 from sim.phantom.centreline import SegmentChain, TubeSamples, sample_tube
 from sim.phantom.mechanics import TissueMechanics
 from sim.phantom.spec import ARTERY, VEIN, BodySpec, PhantomSpec, VesselSpec
@@ -96,6 +104,12 @@ MUSCLE_STREAM = 2
 """Likewise for the muscle bellies (adding them kept every subject's vessels)."""
 MUSCLE_KEYS = ("muscle_count", "muscle_radius", "muscle_seed")
 """The `FemoralAnatomy` parameters drawn from the muscle stream."""
+NERVE_STREAM = 3
+"""Likewise for the femoral nerve (adding it kept every subject's vessels, nodes and bellies)."""
+NERVE_KEYS = (
+    "nerve_count", "nerve_lobes", "nerve_radius", "nerve_gap", "nerve_drop", "nerve_seed"
+)  # fmt: skip
+"""The `FemoralAnatomy` parameters drawn from the nerve stream."""
 
 
 def _stream_draws(
@@ -126,7 +140,7 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
     if subject < 0:
         raise ValueError(f"subject must be >= 0, got {subject}")
     variation = spec.variation
-    own_streams = {*TissueMechanics.keys(), *MUSCLE_KEYS}
+    own_streams = {*TissueMechanics.keys(), *MUSCLE_KEYS, *NERVE_KEYS}
     ranges = dict(sorted(i for i in variation.ranges.items() if i[0] not in own_streams))
     rng = np.random.default_rng([spec.seed, subject])
     anatomy_names = {f.name for f in dataclasses.fields(spec.anatomy)}
@@ -152,7 +166,9 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
             "draws; narrow the variation ranges"
         )
     anatomy = dataclasses.replace(
-        anatomy, **_stream_draws(spec, subject, MUSCLE_KEYS, MUSCLE_STREAM)
+        anatomy,
+        **_stream_draws(spec, subject, MUSCLE_KEYS, MUSCLE_STREAM),
+        **_stream_draws(spec, subject, NERVE_KEYS, NERVE_STREAM),
     )
     nodes, muscles = (  # one in a vessel's way is left out, not drawn again: no bias on vessels
         tuple(
@@ -170,6 +186,9 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
         )
         for layer, t, e in zip(spec.layers, thickness_scale, echo_scale, strict=True)
     )
+    nerve = build_nerve(anatomy, spec.body, spec.lateral_sign)
+    if not vessels_fit(vessels, nerve.lobes, spec.body, variation.min_gap):
+        nerve = FemoralNerve()  # left out whole, like a node in a vessel's way
     mechanics = None if spec.mechanics is None else _subject_mechanics(spec, subject)
     return dataclasses.replace(
         spec,
@@ -180,6 +199,8 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
         bones=bones,
         nodes=nodes,
         muscles=muscles,
+        nerves=nerve.lobes,
+        fascicles=nerve.fascicles,
         anatomy=anatomy,
         noise_level=float(draws.get("noise_level", spec.noise_level)),
         subject=subject,
