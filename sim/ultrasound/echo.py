@@ -198,7 +198,8 @@ def scan_lines(
             lattice = np.empty((3, rows), dtype=np.float32)
         if contact[col] and has_texture and deformed:
             for axis in range(3):
-                lattice[axis] = texture_inverse_scale[axis] * tissue[axis]
+                for row in range(rows):  # element by element: no temporary arrays per column
+                    lattice[axis, row] = texture_inverse_scale[axis] * tissue[axis, row]
             accumulate_coordinates(
                 lattice[0],
                 lattice[1],
@@ -266,9 +267,9 @@ def scan_lines(
                 offset = elevation_offsets[e]
                 if deformed:
                     for axis in range(3):
-                        lattice[axis] = inverse_spacing * (
-                            tissue[axis] + offset * elevation_dir[axis]
-                        )
+                        elevation_shift = offset * elevation_dir[axis]
+                        for row in range(rows):
+                            lattice[axis, row] = inverse_spacing * (tissue[axis, row] + elevation_shift)
                     accumulate_coordinates(
                         lattice[0],
                         lattice[1],
