@@ -267,9 +267,9 @@ def scan_lines(
                 offset = elevation_offsets[e]
                 if deformed:
                     for axis in range(3):
-                        elevation_shift = offset * elevation_dir[axis]
+                        across = offset * elevation_dir[axis]
                         for row in range(rows):
-                            lattice[axis, row] = inverse_spacing * (tissue[axis, row] + elevation_shift)
+                            lattice[axis, row] = inverse_spacing * (tissue[axis, row] + across)
                     accumulate_coordinates(
                         lattice[0],
                         lattice[1],
