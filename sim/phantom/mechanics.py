@@ -122,6 +122,7 @@ def cardiac_waveform(phase: float) -> float:
     return (decay - end) / (1.0 - end)
 
 
+@numba.njit(cache=True)
 def ellipse_perimeter(a: float, b: float) -> float:
     """Perimeter of an ellipse of semi-axes a, b (Ramanujan's second formula: relative error
     under 1e-4 down to b / a = 0.05, measured against the exact integral)."""
@@ -129,9 +130,11 @@ def ellipse_perimeter(a: float, b: float) -> float:
     return math.pi * (a + b) * (1.0 + 3.0 * h / (10.0 + math.sqrt(4.0 - 3.0 * h)))
 
 
+@numba.njit(cache=True)
 def perimeter_keeping_major(minor: float) -> float:
     """The major semi-axis that keeps a unit circle's perimeter (2 pi) when the minor one is
-    `minor` (in (0, 1]): a flattening vein's wall does not stretch."""
+    `minor` (in (0, 1]): a flattening vein's wall does not stretch. Compiled: every deformed
+    frame solves it for each vein in view, and 60 bisection steps cost 0.05 ms in Python."""
     low, high = 1.0, math.pi / 2.0  # a flat slit of half-length pi / 2 has perimeter 2 pi
     for _ in range(60):
         middle = 0.5 * (low + high)

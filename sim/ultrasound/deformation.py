@@ -124,15 +124,16 @@ class ProbeDeformation:
         self._slices = [slice(start, stop) for start, stop in itertools.pairwise(ends)]
         self._depths = (np.arange(probe.rows) + 0.5) * probe.pixel_height
         self._face_area = probe.width * probe.face_thickness
+        self._face_x = np.linspace(-probe.width / 2, probe.width / 2, 9)
+        """Where `indentation` measures along the face's centre line."""
 
     def indentation(self, probe_to_phantom: np.ndarray) -> float:
         """Mean penetration (m) of the face's centre line into the undeformed body, measured
         along the phantom's z (0 where a part of the face is not in contact)."""
-        element_x = np.linspace(-self.probe.width / 2, self.probe.width / 2, 9)
-        elements = probe_to_phantom[:3, 0:1] * element_x + probe_to_phantom[:3, 3:4]
-        skin = self.phantom.skin_height(elements[0], elements[1])
-        penetration = np.nan_to_num(skin - elements[2], nan=0.0)
-        return float(np.clip(penetration, 0.0, None).mean())
+        elements = probe_to_phantom[:3, 0:1] * self._face_x + probe_to_phantom[:3, 3:4]
+        penetration = self.phantom.skin_height(elements[0], elements[1]) - elements[2]
+        penetration[~(penetration > 0.0)] = 0.0  # off the body (NaN) or above the skin
+        return float(penetration.mean())
 
     def frame(self, probe_to_phantom: np.ndarray, load: TissueLoad) -> FrameDeformation:
         """The deformation of the frame taken at `probe_to_phantom` under `load`."""
