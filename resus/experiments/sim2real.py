@@ -21,13 +21,11 @@ The sweeps, the simulation-only training and every fine-tuning are units on an e
 (`resus.execution`: local worker processes or a Ray cluster; `sim2real_units`), each recorded
 when it finishes, so a rerun resumes and the figures do not depend on the engine.
 
-Every run of a fine-tuning from simulation sees the same number of images (`fine_tune_epochs` x
+Every run of a fine-tuning sees the same number of images (`fine_tune_epochs` x
 `fine_tune_epoch_images`: the k images repeated, each repeat augmented afresh), so a small k is
-not also a short training. A run from random weights gets `scratch_epochs` instead: at the
-pretrained runs' budget it has not yet left the all-background answer, and a baseline that has
-not converged would flatter pretraining. With k labels there are none to spare for validation:
-the best epoch is chosen on the k training images themselves, and the test images are never
-looked at before scoring.
+not also a short training. With k labels there are none to spare for validation: the best
+epoch is chosen on the k training images themselves, and the test images are never looked at
+before scoring.
 """
 
 from __future__ import annotations
@@ -121,12 +119,6 @@ class Sim2RealSettings:
     fine_tune_epochs: int = 6
     fine_tune_epoch_images: int = 64
     """Images per fine-tuning epoch: the k images repeated up to this count."""
-    scratch_epochs: int = 80
-    """Epochs of a fine-tuning from random weights (of `fine_tune_epoch_images` each), so the
-    comparison errs against pretraining, never for it (module docstring). At 64 px on the
-    first split of usgra-seg, 100 real labels from scratch score vessel IoU 0.000 after 6
-    epochs, 0.002 after 20, 0.302 after 40 and 0.402 after 80; 25 labels 0.019, 0.197, 0.260
-    and 0.375."""
     minimum_test_images: int = 20
     """The least the real set must leave for testing after the largest k."""
     training_cpus: int = 2
@@ -152,7 +144,6 @@ class Sim2RealSettings:
             "splits",
             "fine_tune_epochs",
             "fine_tune_epoch_images",
-            "scratch_epochs",
             "minimum_test_images",
             "training_cpus",
         )
@@ -348,12 +339,13 @@ def fine_tune(
     device: torch.device,
 ) -> TrainedModel:
     """A U-Net trained on the labelled real images `real`, starting from `initial`'s weights
-    (None: random ones, for `scratch_epochs`), for the settings' fixed budget of images."""
+    (None: random ones), for the settings' fixed budget of images."""
     from resus.segmentation.train import train_model
 
     sets = real.labelled_sets(REAL_SUBJECT)
-    epochs = settings.scratch_epochs if initial is None else settings.fine_tune_epochs
-    budget = dataclasses.replace(preset, max_epochs=epochs, patience=epochs)
+    budget = dataclasses.replace(
+        preset, max_epochs=settings.fine_tune_epochs, patience=settings.fine_tune_epochs
+    )
     result = train_model(
         repeated_to(sets, settings.fine_tune_epoch_images),
         sets,  # no labels to spare: the epoch is chosen on the training images (module doc)

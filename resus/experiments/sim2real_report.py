@@ -112,9 +112,6 @@ def report_lines(results: Mapping, realism: RealismComparison) -> list[str]:
     summary = results["curve_summary"]
     goal = "reaches" if vessel["iou"] >= SIM_ONLY_GOAL else "does not reach"
     counts = settings["label_counts"]
-    epoch_images = settings["fine_tune_epoch_images"]
-    # runs before scratch_epochs existed trained from scratch for fine_tune_epochs
-    scratch_epochs = settings.get("scratch_epochs", settings["fine_tune_epochs"])
     test_sizes = sorted({len(split["test"]) for split in results["splits"]})
     lines = [
         "# Sim-to-real",
@@ -142,9 +139,9 @@ def report_lines(results: Mapping, realism: RealismComparison) -> list[str]:
         "",
         f"{len(results['splits'])} random splits; each keeps {counts[-1]} images for "
         f"fine-tuning and tests on the other {', '.join(map(str, test_sizes))}. Each "
-        f"fine-tuning from simulation sees {settings['fine_tune_epochs'] * epoch_images} "
-        f"images (the k repeated), one from scratch {scratch_epochs * epoch_images}. Pooled "
-        "vessel IoU on the split's test images, mean ± standard deviation over splits:",
+        f"fine-tuning sees {settings['fine_tune_epochs'] * settings['fine_tune_epoch_images']} "
+        "images (the k repeated). Pooled vessel IoU on the split's test images, mean ± "
+        "standard deviation over splits:",
         "",
         "| real labels k | from simulation | from scratch |",
         "| ---: | ---: | ---: |",

@@ -25,7 +25,6 @@ from resus.experiments.sim2real import (
     Sim2RealSettings,
     Spread,
     curve_summary,
-    fine_tune,
     get_sim2real_preset,
     real_splits,
     repeated_to,
@@ -53,7 +52,6 @@ TINY = Sim2RealSettings(
     splits=2,
     fine_tune_epochs=1,
     fine_tune_epoch_images=8,
-    scratch_epochs=2,
     minimum_test_images=6,
     training_cpus=1,
 )
@@ -110,7 +108,6 @@ def test_too_few_real_images_is_one_error_naming_the_settings():
         ({"label_counts": (10, 5)}, "label_counts must be distinct, increasing"),
         ({"regime": "resus"}, "regime must be one of us, aug"),
         ({"splits": 0}, "splits must be at least 1"),
-        ({"scratch_epochs": 0}, "scratch_epochs must be at least 1"),
         ({"training": "huge"}, "unknown preset 'huge'"),
         ({"subjects": ()}, "subjects is empty"),
         ({"export_framing_p": 1.5}, r"export_framing_p must be in \[0, 1\], got 1.5"),
@@ -125,21 +122,6 @@ def test_settings_refuse_what_cannot_run(changes, message):
     base = {"name": "x", "subjects": (0,), "training": "quick"}
     with pytest.raises(ResusError, match=message):
         Sim2RealSettings(**{**base, **changes})
-
-
-def test_a_fine_tuning_from_random_weights_trains_for_scratch_epochs(tmp_path):
-    """The from-scratch baseline gets its own, longer budget; one from the simulation-only
-    weights keeps `fine_tune_epochs` (each epoch the k images repeated to the same count)."""
-    import torch
-
-    folder = write_real_folder(tmp_path, 4)
-    real = read_folders(folder / "images", folder / "masks")
-    preset, cpu = TINY.training_preset(), torch.device("cpu")
-    scratch = fine_tune(real, None, preset, TINY, seed=0, device=cpu)
-    pretrained = fine_tune(real, scratch, preset, TINY, seed=0, device=cpu)
-    assert scratch.config["preset"]["max_epochs"] == TINY.scratch_epochs == 2
-    assert pretrained.config["preset"]["max_epochs"] == TINY.fine_tune_epochs == 1
-    assert scratch.config["fine_tuned_from"] is None
 
 
 def test_presets_and_unknown_preset():
