@@ -23,9 +23,10 @@ when it finishes, so a rerun resumes and the figures do not depend on the engine
 
 Every run of a fine-tuning sees the same number of images (`fine_tune_epochs` x
 `fine_tune_epoch_images`: the k images repeated, each repeat augmented afresh), so a small k is
-not also a short training. With k labels there are none to spare for validation: the best
-epoch is chosen on the k training images themselves, and the test images are never looked at
-before scoring.
+not also a short training, and from either start the same, long enough for a network from
+random weights to learn (see `Sim2RealSettings.fine_tune_epochs`). With k labels there are none
+to spare for validation: the best epoch is chosen on the k training images themselves, and the
+test images are never looked at before scoring.
 """
 
 from __future__ import annotations
@@ -116,9 +117,14 @@ class Sim2RealSettings:
     """k: real labelled images a fine-tuning gets."""
     splits: int = 3
     """Random splits of the real images the curve is averaged over."""
-    fine_tune_epochs: int = 6
+    fine_tune_epochs: int = 80
     fine_tune_epoch_images: int = 64
-    """Images per fine-tuning epoch: the k images repeated up to this count."""
+    """Images per fine-tuning epoch: the k images repeated up to this count. Both starts get
+    the same budget, long enough for either to converge: at 64 px on split 0 of usgra-seg, 100
+    real labels from random weights give vessel IoU 0.000 / 0.002 / 0.302 / 0.402 after 6 /
+    20 / 40 / 80 epochs (6 was the default until 2026-12-04: it compared a trained pretrained
+    network with an untrained baseline), and from the simulation-only weights 0.352 after 6
+    and 0.479 after 80."""
     minimum_test_images: int = 20
     """The least the real set must leave for testing after the largest k."""
     training_cpus: int = 2
@@ -223,7 +229,7 @@ SIM2REAL_PRESETS: dict[str, Sim2RealSettings] = {
         training="paper",
         ensemble=5,
         splits=5,
-        fine_tune_epochs=10,
+        fine_tune_epochs=40,
         fine_tune_epoch_images=160,
         training_gpus=0.25,
     ),
