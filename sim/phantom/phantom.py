@@ -73,18 +73,11 @@ class Phantom:
     def __init__(self, spec: PhantomSpec, cell_size: float = DEFAULT_CELL_SIZE) -> None:
         self.spec = spec
         self.cell_size = cell_size
-        structures = {  # tissue inside tubes that carry no label, in order of their materials
-            "bone": (spec.bone, spec.bones),
-            "node": (spec.node, spec.nodes),
-            "muscle": (spec.muscle, spec.muscles),
-            "nerve": (spec.nerve, spec.nerves),
-            "fascicle": (spec.fascicle, spec.fascicles),
-        }
         materials: list[Material] = [*spec.layers, spec.blood]
         self._blood_index = len(spec.layers)
         # -1 where there are no tubes of a kind: the sampling kernel then skips their lookup
         self._structure_material: dict[str, int] = {}
-        for kind, (material, tubes) in structures.items():
+        for kind, (material, tubes) in spec.structures().items():
             if material is not None:
                 materials.append(material)
             self._structure_material[kind] = len(materials) - 1 if tubes else -1
@@ -113,16 +106,8 @@ class Phantom:
     def _structure_grids(self) -> dict[str, tuple[Grid, np.ndarray]]:
         """Per kind of unlabelled structure, its kernel grid and the mark (1) of each segment.
         They need no search radius: nothing needs the distance to them, only inside or not."""
-        spec = self.spec
-        tubes = {
-            "bone": spec.bones,
-            "node": spec.nodes,
-            "muscle": spec.muscles,
-            "nerve": spec.nerves,
-            "fascicle": spec.fascicles,
-        }
         grids = {}
-        for kind, members in tubes.items():
+        for kind, (_, members) in self.spec.structures().items():
             index = self._tube_index(members, 0.0)
             grids[kind] = (index.kernel_grid(), np.ones(len(index.chain), np.uint8))
         return grids

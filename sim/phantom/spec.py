@@ -195,6 +195,18 @@ class PhantomSpec:
     mechanics: TissueMechanics | None = None
     """How the tissue deforms under the probe and pulses with the heart; None: rigid."""
 
+    def structures(self) -> dict[str, tuple[Material | None, tuple[VesselSpec, ...]]]:
+        """Tissue inside tubes that carry no label, kind by kind (material, tubes), in the
+        order their materials follow the layers' and blood's: bone, lymph node, muscle belly,
+        nerve, fascicle."""
+        return {
+            "bone": (self.bone, self.bones),
+            "node": (self.node, self.nodes),
+            "muscle": (self.muscle, self.muscles),
+            "nerve": (self.nerve, self.nerves),
+            "fascicle": (self.fascicle, self.fascicles),
+        }
+
     def __post_init__(self) -> None:
         if self.side not in SIDES:
             raise ValueError(f"side must be one of {SIDES}, got {self.side!r}")
