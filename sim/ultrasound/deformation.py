@@ -327,67 +327,67 @@ def undeform_points(
     """Map deformed pixel centres (column-major, `rows` per column) in place to the
     undeformed tissue points that moved there: undo the bulk shift along `beam` (inside a
     vessel, its centre's shift), then each cross-section map in turn (see the module
-    docstring). `reach` (`column_reach`) lets most pixels skip the maps that cannot touch
-    them (the vessels' rings cover a small part of an image); the points are the same."""
+    docstring). Each column runs map by map over its rows, so `reach` (`column_reach`) and a
+    map's constants are read once per column and the rows no map can touch cost one
+    comparison each (the vessels' rings cover a small part of an image); every point still
+    meets the maps in their order, so the points are the same as a point-by-point loop's."""
     cols = points.shape[0] // rows
     for col in numba.prange(cols):
-        for row in range(rows):
-            n = col * rows + row
-            _undeform_point(points, n, col, row * row_height, beam, row_shift[row], maps, reach)
+        first = col * rows
+        shift = row_shift.copy()  # each row's shift along the beam, blended into the vessels'
+        for m in range(maps.shape[0]):  # a vessel moves rigidly with the tissue at its centre
+            row = maps[m]
+            centre_shift = row[18]
+            low, high = reach[m, col, 0], reach[m, col, 1]
+            for r in range(*_rows_between(low, high, row_height, rows)):
+                if not low <= r * row_height <= high:
+                    continue  # the map's weight is 0 here
+                n = first + r
+                weight = _cross_section_weight(
+                    points[n, 0] - row[0] - centre_shift * beam[0],
+                    points[n, 1] - row[1] - centre_shift * beam[1],
+                    points[n, 2] - row[2] - centre_shift * beam[2],
+                    row,
+                )
+                shift[r] += weight * (centre_shift - shift[r])
+        on_line = np.ones(rows, dtype=np.bool_)  # still on the column's line, r * row_height
+        for r in range(rows):  # - shift[r] along it
+            n = first + r
+            for axis in range(3):
+                points[n, axis] -= shift[r] * beam[axis]
+        for m in range(maps.shape[0]):
+            row = maps[m]
+            low, high, centre_shift = reach[m, col, 0], reach[m, col, 1], row[18]
+            for r in range(rows):
+                if on_line[r] and not low <= r * row_height - shift[r] + centre_shift <= high:
+                    continue
+                n = first + r
+                reached, ax, ay, az, rho, nu = _section_coordinates(
+                    points[n, 0] - row[0], points[n, 1] - row[1], points[n, 2] - row[2], row
+                )
+                if not reached or rho <= 0.0:
+                    continue
+                radius, outer = row[12], row[15]
+                if nu <= 1.0:
+                    scale = radius * nu / rho
+                else:
+                    edge = rho / nu
+                    scale = (radius + (rho - edge) * (outer - radius) / (outer - edge)) / rho
+                points[n, 0] += (scale - 1.0) * ax
+                points[n, 1] += (scale - 1.0) * ay
+                points[n, 2] += (scale - 1.0) * az
+                on_line[r] = False
 
 
 @numba.njit(cache=True, inline="always")
-def _undeform_point(
-    points: np.ndarray,
-    n: int,
-    col: int,
-    down: float,
-    beam: np.ndarray,
-    shift: float,
-    maps: np.ndarray,
-    reach: np.ndarray,
-) -> None:
-    """`undeform_points` for pixel `n` of column `col`, `down` along its line, whose row the
-    bulk compression moved by `shift`."""
-    px, py, pz = points[n, 0], points[n, 1], points[n, 2]
-    for m in range(maps.shape[0]):  # a vessel moves rigidly with the tissue at its centre
-        row = maps[m]
-        centre_shift = row[18]
-        if not reach[m, col, 0] <= down <= reach[m, col, 1]:
-            continue  # the map's weight is 0 here
-        weight = _cross_section_weight(
-            px - row[0] - centre_shift * beam[0],
-            py - row[1] - centre_shift * beam[1],
-            pz - row[2] - centre_shift * beam[2],
-            row,
-        )
-        shift += weight * (centre_shift - shift)
-    qx = px - shift * beam[0]
-    qy = py - shift * beam[1]
-    qz = pz - shift * beam[2]
-    on_line = True  # q is still on the column's line, `down - shift` along it
-    for m in range(maps.shape[0]):
-        row = maps[m]
-        if on_line and not reach[m, col, 0] <= down - shift + row[18] <= reach[m, col, 1]:
-            continue
-        reached, ax, ay, az, rho, nu = _section_coordinates(
-            qx - row[0], qy - row[1], qz - row[2], row
-        )
-        if not reached or rho <= 0.0:
-            continue
-        radius, outer = row[12], row[15]
-        if nu <= 1.0:
-            scale = radius * nu / rho
-        else:
-            edge = rho / nu
-            scale = (radius + (rho - edge) * (outer - radius) / (outer - edge)) / rho
-        qx += (scale - 1.0) * ax
-        qy += (scale - 1.0) * ay
-        qz += (scale - 1.0) * az
-        on_line = False
-    points[n, 0] = qx
-    points[n, 1] = qy
-    points[n, 2] = qz
+def _rows_between(low: float, high: float, row_height: float, rows: int) -> tuple[int, int]:
+    """A range of rows, one past each end, that holds every row r with `low <= r *
+    row_height <= high` (empty where low > high); the caller keeps the exact test."""
+    if not low <= high:
+        return 0, 0
+    first = max(0.0, min(float(rows), math.floor(low / row_height) - 1.0))
+    last = max(0.0, min(float(rows), math.ceil(high / row_height) + 2.0))
+    return int(first), int(last)
 
 
 @numba.njit(cache=True, inline="always")
