@@ -12,9 +12,37 @@ import pytest
 
 from sim.phantom import Phantom, load_phantom
 from sim.robot import SimulatedUR3e
+from sim.robot.kinematics import forward_kinematics, inverse_kinematics
+from sim.ultrasound.deformation import TissueLoad
+from sim.ultrasound.scanner import scanner_preset
+from sim.ultrasound.simulator import UltrasoundSimulator
+from sim.ultrasound.skin_pose import probe_pose_on_skin
 
 HANG_TIMEOUT = 150.0
 """Seconds after which a test marked `hang_guard` aborts the test process with tracebacks."""
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Compile the real-time kernels once, before any test process starts.
+
+    Numba caches compiled kernels beside their sources; on a fresh clone (CI) there is no
+    cache yet, and each process compiles what it calls, about 40 s for the ultrasound kernels.
+    Left to the tests, both xdist workers and the render and emulator processes that the scan
+    tests start would compile at once, and a real-time scan starved of CPU records only part
+    of its sweep. Here the controller (or a run without xdist) fills the cache first: render a
+    frame rigid and pressed, and solve the arm's kinematics and a simulation step."""
+    if hasattr(config, "workerinput"):  # an xdist worker: the controller has done it
+        return
+    phantom = Phantom(load_phantom("femoral"))
+    preset = scanner_preset("vascular")
+    simulator = UltrasoundSimulator(phantom, preset.probe(), preset.settings())
+    pose = probe_pose_on_skin(phantom, 0.0, 0.0)
+    simulator.render(pose)
+    pose[:3, 3] += 0.003 * pose[:3, 2]
+    simulator.render(pose, TissueLoad(4.0, 0.0))
+    robot = SimulatedUR3e()
+    inverse_kinematics(forward_kinematics(robot.joint_positions()), robot.joint_positions())
+    robot.step()
 
 
 @pytest.fixture(autouse=True)
