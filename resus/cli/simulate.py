@@ -90,7 +90,8 @@ def simulate(
     scanner: Annotated[
         str | None,
         typer.Option(
-            help="Scanner preset: vascular, vascular-deep, nerve, classic, random-N, or random "
+            help="Scanner preset: vascular, vascular-compound, vascular-deep, nerve, classic, "
+            "random-N, or random "
             "(one per sweep); default: the simulator's own settings."
         ),
     ] = None,

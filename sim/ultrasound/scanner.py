@@ -57,6 +57,11 @@ class ScannerPreset:
     (`UltrasoundSettings.reverberation`)."""
     persistence: float = 0.3
     """Frame averaging of the live image (`UltrasoundSettings.persistence`)."""
+    compound_frames: int = 1
+    """Steered frames averaged into each image (`UltrasoundSettings.compound_frames`); 1: off.
+    Off in the named presets but `vascular-compound`: each frame costs as much again."""
+    compound_angle: float = 0.0
+    """The largest steering angle of compounding (rad)."""
 
     def __post_init__(self) -> None:
         if not 2.0e6 <= self.centre_frequency <= 20.0e6:
@@ -115,6 +120,8 @@ class ScannerPreset:
             electronic_noise_db=self.electronic_noise_db,
             reverberation=self.reverberation,
             persistence=self.persistence,
+            compound_frames=self.compound_frames,
+            compound_angle=self.compound_angle,
         )
 
 
@@ -122,6 +129,7 @@ PRESETS: dict[str, ScannerPreset] = {
     preset.name: preset
     for preset in (
         ScannerPreset(),
+        ScannerPreset(name="vascular-compound", compound_frames=3, compound_angle=0.17),
         ScannerPreset(
             name="vascular-deep",
             centre_frequency=7.0e6,
@@ -158,8 +166,9 @@ PRESETS: dict[str, ScannerPreset] = {
         ),
     )
 }
-"""Named presets. `vascular` (the default) is a modern vascular preset; `classic` is the
-simulator's look before presets existed (bright, high contrast, black lumens)."""
+"""Named presets. `vascular` (the default) is a modern vascular preset; `vascular-compound`
+the same with spatial compounding (three frames, +-10 degrees); `classic` is the simulator's
+look before presets existed (bright, high contrast, black lumens)."""
 
 RANDOM_RANGES: dict[str, tuple[float, float]] = {
     "centre_frequency": (6.0e6, 14.0e6),
@@ -191,6 +200,13 @@ grey map pushed lumens to black), 0.22 / 0.42 / 0.63 with -4 to +4 dB."""
 DRAWN_LAST = ("reverberation", "persistence")
 """Knobs added after the others, drawn after the TGC sliders so that every earlier knob of a
 seed's preset stayed as it was."""
+COMPOUND_FRAMES = (1, 3, 5)
+"""What `random_preset` draws compounding's frame count from, each as likely (a third of the
+presets do not compound); drawn after `DRAWN_LAST`, then its angle from
+`COMPOUND_ANGLE_RANGE`."""
+COMPOUND_ANGLE_RANGE = (0.15, 0.35)
+"""Largest steering angle (rad) of a compounding random preset: 9-20 degrees, what compound
+presets of linear arrays use."""
 
 
 def random_preset(seed: int) -> ScannerPreset:
@@ -200,6 +216,8 @@ def random_preset(seed: int) -> ScannerPreset:
     draw = {name: float(rng.uniform(*RANDOM_RANGES[name])) for name in names}
     sliders = rng.uniform(*RANDOM_RANGES["tgc_slider_db"], TGC_SLIDERS)
     draw |= {name: float(rng.uniform(*RANDOM_RANGES[name])) for name in DRAWN_LAST}
+    compound_frames = int(rng.choice(COMPOUND_FRAMES))
+    compound_angle = float(rng.uniform(*COMPOUND_ANGLE_RANGE))
     return ScannerPreset(
         name=f"random-{seed}",
         centre_frequency=draw["centre_frequency"],
@@ -216,6 +234,8 @@ def random_preset(seed: int) -> ScannerPreset:
         electronic_noise_db=draw["electronic_noise_db"],
         reverberation=draw["reverberation"],
         persistence=draw["persistence"],
+        compound_frames=compound_frames,
+        compound_angle=compound_angle if compound_frames > 1 else 0.0,
     )
 
 

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+MAX_STEERING = 0.35
+"""The largest steering angle (rad, 20 degrees) a compounded frame may use: beyond it a linear
+array's grating lobes and the elements' directivity make steered frames unusable."""
+
 
 @dataclass(frozen=True)
 class UltrasoundSettings:
@@ -78,6 +82,12 @@ class UltrasoundSettings:
     grey_gamma: float = 1.0
     """Grey map: a log-compressed level g shows as `255 * (g / 255) ** grey_gamma`; above 1
     darkens the mid-greys, as vascular presets do, and keeps black and white."""
+    compound_frames: int = 1
+    """Spatial compounding (`sim.ultrasound.compounding`): frames steered at evenly spread
+    angles averaged into each displayed frame, odd (the unsteered one among them), 1-9.
+    1: none. Each frame costs about as much as an uncompounded one."""
+    compound_angle: float = 0.0
+    """The largest steering angle (rad) of a compounded frame, 0 to 0.35 (20 degrees)."""
     contact_tolerance: float = 0.5e-3
     """Largest gap (m) between a transducer element and the skin that gel still couples;
     columns whose element is further above the skin stay black."""
@@ -121,5 +131,20 @@ class UltrasoundSettings:
                 raise ValueError(
                     f"ultrasound setting {name} must be in [0, 1), got {getattr(self, name)}"
                 )
+        if not (1 <= self.compound_frames <= 9 and self.compound_frames % 2 == 1):
+            raise ValueError(
+                "ultrasound setting compound_frames must be odd and 1..9, "
+                f"got {self.compound_frames}"
+            )
+        if not 0 <= self.compound_angle <= MAX_STEERING:
+            raise ValueError(
+                f"ultrasound setting compound_angle must be in [0, {MAX_STEERING}] rad, "
+                f"got {self.compound_angle}"
+            )
+        if self.compound_frames > 1 and self.compound_angle == 0:
+            raise ValueError(
+                f"ultrasound setting compound_angle must be > 0 to compound "
+                f"{self.compound_frames} frames, got 0"
+            )
         if len(self.tgc_sliders_db) == 1:
             raise ValueError("ultrasound setting tgc_sliders_db needs at least two sliders, got 1")

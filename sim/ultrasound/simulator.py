@@ -27,6 +27,7 @@ import numpy as np
 from sim.phantom import Phantom, TissueSample
 from sim.transforms import is_rigid
 from sim.ultrasound.beam import axial_pulse, elevation_profile, lateral_beam
+from sim.ultrasound.compounding import accumulate_steered, compound_lines, steering_angles
 from sim.ultrasound.deformation import (
     FrameDeformation,
     ProbeDeformation,
@@ -170,6 +171,9 @@ class UltrasoundSimulator:
         self._label_lines = np.empty((probe.cols, probe.rows), dtype=np.uint8)
         self._image_to_probe = probe.image_to_probe()
         self._sample = TissueSample.empty(count)
+        self._steering = steering_angles(settings.compound_frames, settings.compound_angle)
+        self._compound_total = np.zeros((probe.cols, probe.rows), dtype=np.float32)
+        self._compound_count = np.zeros_like(self._compound_total)
         self.deformation = None if spec.mechanics is None else ProbeDeformation(phantom, probe)
         self.last_deformation: FrameDeformation | None = None
         """The deformation of the last frame rendered deformed (None: rigid)."""
@@ -181,6 +185,105 @@ class UltrasoundSimulator:
         with np.errstate(invalid="ignore"):
             gap = elements[2] - self.phantom.skin_height(elements[0], elements[1])
             return gap <= self.settings.contact_tolerance
+
+    def _scan(
+        self,
+        pose: np.ndarray,
+        origin: np.ndarray,
+        col_step: np.ndarray,
+        row_step: np.ndarray,
+        contact: np.ndarray,
+        speckle_seed: np.uint32,
+        frame_key: np.uint32,
+        steered: bool = False,
+    ) -> TissueSample:
+        """One frame's scan lines on the lattice `origin + col * col_step + row * row_step`
+        (the beam along `row_step`, `steered` away from the probe's axis or not), through the tissue
+        deformed as `last_deformation` says, into the grey `_image_lines` and `_label_lines`;
+        returns the tissue sampled at the lattice's pixels."""
+        probe = self.probe
+        grid_points(origin, col_step, row_step, probe.rows, self._points)
+        frame = self.last_deformation
+        if frame is not None:
+            beam = np.ascontiguousarray(pose[:3, 2])
+            if steered:  # its columns do not run along the compression: no culling
+                reach = np.empty((len(frame.maps), probe.cols, 2))
+                reach[..., 0], reach[..., 1] = -np.inf, np.inf
+            else:
+                reach = column_reach(self._points, probe.rows, probe.pixel_height, beam, frame.maps)
+            undeform_points(
+                self._points,
+                probe.rows,
+                probe.pixel_height,
+                beam,
+                frame.row_shift,
+                frame.maps,
+                reach,
+            )
+        sample = self.phantom.sample(
+            self._points, out=self._sample, search_radius=self._vessel_search_radius
+        )
+        if self._clutter_power > 0.0:
+            lateral_clutter(
+                sample.material,
+                self._echogenicity,
+                probe.rows,
+                self._clutter_power,
+                self._clutter_half_cols,
+                self._clutter_sums,
+                self._clutter,
+            )
+        scan_lines(
+            origin,
+            col_step,
+            row_step,
+            frame is not None,
+            self._points,
+            np.ascontiguousarray(pose[:3, 1]),
+            self._elevation_offsets,
+            self._elevation_weights,
+            sample.material,
+            sample.vessel_distance,
+            sample.vessel_normal,
+            sample.vessel_index,
+            self._wall_thickness,
+            self._echogenicity,
+            self._round_trip_step,
+            self._impedance,
+            contact,
+            self._pulse,
+            1.0 / self.settings.scatterer_spacing,
+            speckle_seed,
+            self.settings.specular_gain,
+            self._specular_exponent,
+            self.settings.reverberation,
+            self._clutter_power > 0.0,
+            self._clutter,
+            self._has_texture,
+            self._texture_inverse_scale,
+            self._texture_seed,
+            self._texture_variation,
+            self._texture_ridges,
+            self._echo_real,
+            self._echo_imag,
+        )
+        form_image(
+            self._echo_real,
+            self._echo_imag,
+            self._lateral,
+            self._tgc,
+            self._noise_amplitude,
+            frame_key,
+            self._grey_per_log2,
+            self._grey_offset,
+            self._grey_map,
+            sample.material,
+            sample.label,
+            contact,
+            self._image_lines,
+            self._label_lines,
+        )
+        return sample
 
     def render(
         self, probe_to_phantom: np.ndarray, load: TissueLoad | None = None
@@ -199,89 +302,47 @@ class UltrasoundSimulator:
         origin = np.ascontiguousarray(pixel_to_phantom[:3, 3])
         col_step = np.ascontiguousarray(pixel_to_phantom[:3, 0])
         row_step = np.ascontiguousarray(pixel_to_phantom[:3, 1])
-        grid_points(origin, col_step, row_step, probe.rows, self._points)
-        deformed = load is not None and self.deformation is not None
         self.last_deformation = None
         if load is not None and self.deformation is not None:
-            frame = self.last_deformation = self.deformation.frame(pose, load)
-            beam = np.ascontiguousarray(pose[:3, 2])
-            reach = column_reach(self._points, probe.rows, probe.pixel_height, beam, frame.maps)
-            undeform_points(
-                self._points,
-                probe.rows,
-                probe.pixel_height,
-                beam,
-                frame.row_shift,
-                frame.maps,
-                reach,
-            )
-        sample = self.phantom.sample(
-            self._points, out=self._sample, search_radius=self._vessel_search_radius
-        )
+            self.last_deformation = self.deformation.frame(pose, load)
         contact = self.contact(pose)
-        if self._clutter_power > 0.0:
-            lateral_clutter(
+        frame_key = np.uint32(zlib.crc32(pose.tobytes(), int(self._seed)))
+        if len(self._steering) == 1:
+            sample = self._scan(pose, origin, col_step, row_step, contact, self._seed, frame_key)
+        else:
+            self._compound_total.fill(0.0)
+            self._compound_count.fill(0.0)
+            columns_per_row = probe.pixel_height / probe.pixel_width
+            for k, angle in enumerate(self._steering):  # the unsteered frame last
+                steered = row_step + math.tan(angle) * columns_per_row * col_step
+                unsteered = k == len(self._steering) - 1
+                sample = self._scan(
+                    pose,
+                    origin,
+                    col_step,
+                    steered,
+                    contact,
+                    self._seed if unsteered else mix_seed(int(self._seed), k),
+                    frame_key if unsteered else mix_seed(int(frame_key), k),
+                    steered=not unsteered,
+                )
+                accumulate_steered(
+                    self._image_lines,
+                    sample.material,
+                    contact,
+                    math.tan(angle) * columns_per_row,
+                    self._compound_total,
+                    self._compound_count,
+                )
+            compound_lines(
+                self._compound_total,
+                self._compound_count,
                 sample.material,
-                self._echogenicity,
-                probe.rows,
-                self._clutter_power,
-                self._clutter_half_cols,
-                self._clutter_sums,
-                self._clutter,
+                contact,
+                self._image_lines,
             )
-        scan_lines(
-            origin,
-            col_step,
-            row_step,
-            deformed,
-            self._points,
-            np.ascontiguousarray(pose[:3, 1]),
-            self._elevation_offsets,
-            self._elevation_weights,
-            sample.material,
-            sample.vessel_distance,
-            sample.vessel_normal,
-            sample.vessel_index,
-            self._wall_thickness,
-            self._echogenicity,
-            self._round_trip_step,
-            self._impedance,
-            contact,
-            self._pulse,
-            1.0 / self.settings.scatterer_spacing,
-            self._seed,
-            self.settings.specular_gain,
-            self._specular_exponent,
-            self.settings.reverberation,
-            self._clutter_power > 0.0,
-            self._clutter,
-            self._has_texture,
-            self._texture_inverse_scale,
-            self._texture_seed,
-            self._texture_variation,
-            self._texture_ridges,
-            self._echo_real,
-            self._echo_imag,
-        )
         image = np.empty((probe.rows, probe.cols), dtype=np.uint8)
         labels = np.empty((probe.rows, probe.cols), dtype=np.uint8)
-        frame_key = np.uint32(zlib.crc32(pose.tobytes(), int(self._seed)))
-        form_image(
-            self._echo_real,
-            self._echo_imag,
-            self._lateral,
-            self._tgc,
-            self._noise_amplitude,
-            frame_key,
-            self._grey_per_log2,
-            self._grey_offset,
-            self._grey_map,
-            sample.material,
-            sample.label,
-            contact,
-            self._image_lines,
-            self._label_lines,
-        )
         lines = self._image_lines
         if self._smoothing is not None:
             smooth_lines(
