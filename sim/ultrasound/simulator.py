@@ -314,13 +314,13 @@ class UltrasoundSimulator:
             self._compound_count.fill(0.0)
             columns_per_row = probe.pixel_height / probe.pixel_width
             for k, angle in enumerate(self._steering):  # the unsteered frame last
-                steered = row_step + math.tan(angle) * columns_per_row * col_step
+                beam_step = row_step + math.tan(angle) * columns_per_row * col_step
                 unsteered = k == len(self._steering) - 1
                 sample = self._scan(
                     pose,
                     origin,
                     col_step,
-                    steered,
+                    beam_step,
                     contact,
                     self._seed if unsteered else mix_seed(int(self._seed), k),
                     frame_key if unsteered else mix_seed(int(frame_key), k),
