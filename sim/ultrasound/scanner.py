@@ -217,7 +217,7 @@ def random_preset(seed: int) -> ScannerPreset:
     sliders = rng.uniform(*RANDOM_RANGES["tgc_slider_db"], TGC_SLIDERS)
     draw |= {name: float(rng.uniform(*RANDOM_RANGES[name])) for name in DRAWN_LAST}
     compound_frames = int(rng.choice(COMPOUND_FRAMES))
-    compound_angle = float(rng.uniform(*COMPOUND_ANGLE_RANGE))
+    compound_angle = float(rng.uniform(*COMPOUND_ANGLE_RANGE))  # drawn always: one stream
     return ScannerPreset(
         name=f"random-{seed}",
         centre_frequency=draw["centre_frequency"],
