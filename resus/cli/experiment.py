@@ -2,7 +2,9 @@
 
 Every command of the group takes the same run options (`--out`, `--data`, `--seed`,
 `--device`, `--jobs`, `--executor`, `--address`), turned into `RunOptions` by `run_options`;
-`phantom` and `subjects` also take `--seeds` (training seeds per model, `preset_with_seeds`).
+`phantom` and `subjects` also take `--seeds` (training seeds per model), `--phantom` and
+`--scanner` (what is scanned and how it is imaged), applied to the preset by
+`experiment_preset`.
 """
 
 from __future__ import annotations
@@ -41,23 +43,45 @@ DataOption = Annotated[
     Path | None, typer.Option(help="Scratch folder for sweeps and volumes [OUT/data].")
 ]
 FirstSeedOption = Annotated[int, typer.Option(help="First training seed.")]
+ExperimentPhantomOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Phantom spec name or YAML path [the gel block]; each sweep is centred on its "
+        "subject's artery and vein."
+    ),
+]
+ExperimentScannerOption = Annotated[
+    str | None,
+    typer.Option(help="Scanner preset imaging every sweep [the simulator's own settings]."),
+]
 SeedsOption = Annotated[
     int | None,
     typer.Option(help="Training seeds per model (--seed, --seed + 1, ...) [preset's: 3]."),
 ]
 
 
-def preset_with_seeds(name: str, seeds: int | None) -> ExperimentPreset:
+def experiment_preset(
+    name: str, seeds: int | None, phantom: str | None = None, scanner: str | None = None
+) -> ExperimentPreset:
     """The experiment preset called `name` (`--preset`), with `seeds` training seeds per
-    model when given (`--seeds`)."""
+    model (`--seeds`), scanning `phantom` with each sweep centred on its subject's vessels
+    (`--phantom`) and imaging through the scanner preset `scanner` (`--scanner`), each when
+    given."""
     from resus.experiments.tables import get_experiment_preset
 
     with flag_error("--preset"):
         preset = get_experiment_preset(name)
-    if seeds is None:
-        return preset
-    with flag_error("--seeds"):
-        return dataclasses.replace(preset, repeats=seeds)
+    if seeds is not None:
+        with flag_error("--seeds"):
+            preset = dataclasses.replace(preset, repeats=seeds)
+    scans = preset.scans
+    if phantom is not None:
+        with flag_error("--phantom"):
+            scans = dataclasses.replace(scans, phantom=phantom, centre_on_vessels=True)
+    if scanner is not None:
+        with flag_error("--scanner"):
+            scans = dataclasses.replace(scans, scanner=scanner)
+    return dataclasses.replace(preset, scans=scans)
 
 
 def parse_subjects(text: str) -> list[int]:
@@ -114,6 +138,8 @@ def register(app: typer.Typer) -> None:
     def phantom_command(
         out: ReportFolderOption,
         preset: PresetOption = "quick",
+        phantom: ExperimentPhantomOption = None,
+        scanner: ExperimentScannerOption = None,
         data: DataOption = None,
         seed: FirstSeedOption = 0,
         seeds: SeedsOption = None,
@@ -126,7 +152,7 @@ def register(app: typer.Typer) -> None:
         from resus.experiments.tables import run_phantom_experiment
 
         options = run_options(out, data, seed, device, jobs, executor, address)
-        settings = preset_with_seeds(preset, seeds)
+        settings = experiment_preset(preset, seeds, phantom, scanner)
         results = run_phantom_experiment(settings, options)
         for trained_on, row in results.iou.items():
             cells = ", ".join(
@@ -145,6 +171,8 @@ def register(app: typer.Typer) -> None:
     def subjects_command(
         out: ReportFolderOption,
         preset: PresetOption = "quick",
+        phantom: ExperimentPhantomOption = None,
+        scanner: ExperimentScannerOption = None,
         subjects: Annotated[
             str | None,
             typer.Option(help="K (subjects 0..K-1), or e.g. 0-5 or 0,2,5 [preset's]."),
@@ -163,7 +191,7 @@ def register(app: typer.Typer) -> None:
         from resus.experiments.tables import run_subjects_experiment
 
         options = run_options(out, data, seed, device, jobs, executor, address)
-        settings = preset_with_seeds(preset, seeds)
+        settings = experiment_preset(preset, seeds, phantom, scanner)
         from resus.segmentation.loso import REGIMES  # torch: after the quick checks
 
         results = run_subjects_experiment(

@@ -49,6 +49,10 @@ class ScanSettings:
     """Probe image height (pixels)."""
     sweep: LinearPattern = field(default_factory=LinearPattern)
     """The default linear sweep (a scan may replace it)."""
+    centre_on_vessels: bool = False
+    """Move every scan's sweep across by where its subject's artery and vein lie at the
+    default sweep's middle (`vessel_midline`), as a sonographer places the probe: an in-vivo
+    phantom's vessels lie anywhere across the groin, the gel block's under its middle."""
     grid: str = "ransac"
     """Volume grid: "ransac" (the paper's parallelepiped) or "aabb" (axis-aligned box)."""
     spacing: float = 0.5e-3
@@ -87,6 +91,25 @@ class Scan:
     """None: the settings' default sweep."""
 
 
+def placed_scan(
+    name: str, subject: int | None, settings: ScanSettings, sweep: LinearPattern | None = None
+) -> Scan:
+    """The scan of `subject` along `sweep` (None: the settings' default), moved across onto the
+    subject's vessels when `settings.centre_on_vessels` asks. Every sweep of one subject moves
+    by the same amount, measured at the default sweep's middle, so scans placed apart (Table
+    I's scan B, 4 mm aside of scan A) stay apart."""
+    sweep = sweep or settings.sweep
+    if settings.centre_on_vessels:
+        from resus.acquisition.simulation import phantom_spec, resolve_scene
+        from resus.experiments.vessel_targets import vessel_midline
+
+        spec = phantom_spec(resolve_scene(settings.scene, settings.phantom, subject))
+        x, y = settings.sweep.middle
+        shift = vessel_midline(spec, float(y)) - float(x)
+        sweep = dataclasses.replace(sweep, start=(sweep.start[0] + shift, sweep.start[1]))
+    return Scan(name, subject, sweep)
+
+
 @dataclass(frozen=True)
 class SubjectData:
     """Files of one prepared scan, and the subject id its frames and reslices carry."""
@@ -109,7 +132,8 @@ def prepare_subjects(
     executor: Executor | None = None,
 ) -> list[SubjectData]:
     """Prepare one scan per phantom subject in `folder/subject_KK/` (see `prepare_scans`)."""
-    scans = [Scan(f"subject_{k:02d}", k) for k in subjects]
+    settings = settings or ScanSettings()
+    scans = [placed_scan(f"subject_{k:02d}", k, settings) for k in subjects]
     return prepare_scans(folder, scans, settings, jobs=jobs, progress=progress, executor=executor)
 
 

@@ -24,7 +24,7 @@ import numpy as np
 from resus.acquisition.patterns import LinearPattern
 from resus.acquisition.safety import SafetyLimits
 from resus.errors import ResusError
-from resus.experiments.data import Scan, ScanSettings, SubjectData, prepare_scans
+from resus.experiments.data import Scan, ScanSettings, SubjectData, placed_scan, prepare_scans
 from resus.experiments.demo_report import render_report
 from resus.experiments.results import MIN_SEEDS, IoUSummary, compare_models
 from resus.sweep.model import Sweep
@@ -101,21 +101,9 @@ class DemoSettings:
         return tuple(self.seed + k for k in range(self.seeds))
 
     def scans(self) -> list[Scan]:
-        """One sweep per subject, moved across to centre on the subject's artery and vein at
-        its middle (`vessel_midline`), as a sonographer places the probe."""
-        from resus.acquisition.simulation import phantom_spec, resolve_scene
-        from resus.experiments.vessel_targets import vessel_midline
-
+        """One sweep per subject, centred on its artery and vein (`placed_scan`)."""
         settings = self.scan_settings()
-        nominal, middle = settings.sweep, settings.sweep.middle
-        scans = []
-        for subject in self.subjects:
-            spec = phantom_spec(resolve_scene(settings.scene, settings.phantom, subject))
-            shift = vessel_midline(spec, float(middle[1])) - middle[0]
-            start = (float(nominal.start[0] + shift), nominal.start[1])
-            sweep = dataclasses.replace(nominal, start=start)
-            scans.append(Scan(f"subject_{subject:02d}", subject, sweep))
-        return scans
+        return [placed_scan(f"subject_{s:02d}", s, settings) for s in self.subjects]
 
     def scan_settings(self) -> ScanSettings:
         sweep = LinearPattern(
@@ -126,6 +114,7 @@ class DemoSettings:
         return ScanSettings(
             phantom=self.phantom,
             scanner=self.scanner,
+            centre_on_vessels=True,
             cols=self.image_size,
             rows=self.image_size,
             sweep=sweep,

@@ -1,9 +1,10 @@
 """The paper's two tables, in simulation.
 
-- `run_phantom_experiment` (Table I): two scans of the gel-block phantom from different start
-  points and tilts. A U-Net is trained on scan A's frames, or on scan A's frames plus the
-  reslices of scan A's volume, and scored on scan B's frames and on scan B's frames plus
-  reslices: a 2 x 2 IoU table.
+- `run_phantom_experiment` (Table I): two scans of the nominal phantom (the gel block unless
+  the preset's `ScanSettings.phantom` names another) from different start points and tilts.
+  A U-Net is trained on scan A's frames, or on scan A's frames plus the reslices of scan A's
+  volume, and scored on scan B's frames and on scan B's frames plus reslices: a 2 x 2 IoU
+  table.
 - `run_subjects_experiment` (Table II): leave-one-subject-out over simulated subjects for the
   regimes us / imagenet / aug / resus, IoU per subject and the average.
 
@@ -33,9 +34,9 @@ from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
 from resus.execution import Executor, Resources, make_executor
 from resus.experiments.data import (
-    Scan,
     ScanSettings,
     SubjectData,
+    placed_scan,
     prepare_scans,
     prepare_subjects,
     scan_record,
@@ -283,7 +284,10 @@ def run_phantom_experiment(preset: ExperimentPreset, options: RunOptions) -> Pha
 
     start = time.perf_counter()
     scan_a, scan_b = preset.phantom_scans
-    scans = [Scan("phantom_scan_a", None, scan_a), Scan("phantom_scan_b", None, scan_b)]
+    scans = [
+        placed_scan("phantom_scan_a", None, preset.scans, scan_a),
+        placed_scan("phantom_scan_b", None, preset.scans, scan_b),
+    ]
     seeds = preset.seeds(options.seed)
     with _executor(options) as executor:
         data = prepare_scans(

@@ -114,6 +114,8 @@ def test_phantom_report_table_equals_results_json(tmp_path):
         (["subjects", "--regimes", "us,magic"], "--regimes: expected a comma list"),
         (["phantom", "--executor", "spark"], "--executor: unknown executor 'spark'"),
         (["phantom", "--seeds", "1"], "--seeds: ExperimentPreset.repeats must be at least 2"),
+        (["phantom", "--phantom", "nosuch"], "--phantom: ScanSettings.phantom: unknown phantom"),
+        (["subjects", "--scanner", "x"], "--scanner: ScanSettings.scanner: unknown scanner"),
     ],
 )
 def test_cli_bad_input_is_one_line(tmp_path, arguments, message):
