@@ -84,3 +84,20 @@ def elevation_profile(
     offsets = np.linspace(-half_span, half_span, settings.elevation_samples)
     weights = np.exp(-0.5 * (offsets / sigma) ** 2)
     return offsets, _normalised(weights, offsets, settings.scatterer_spacing)
+
+
+def aperture_coupling(contact: np.ndarray, half_cols: int) -> np.ndarray | None:
+    """(cols,) float32 amplitude factor of each scan line: the coupled share of its active
+    aperture (its column +- `half_cols`, cut at the array's ends) squared, since the transmitted
+    pressure and the receive sensitivity each scale with it to first order. None when every
+    element is coupled or none is: then no line is dimmed."""
+    contact = np.asarray(contact, dtype=bool)
+    if contact.all() or not contact.any():
+        return None
+    cols = len(contact)
+    coupled = np.concatenate(([0], np.cumsum(contact)))
+    centre = np.arange(cols)
+    low = np.maximum(centre - half_cols, 0)
+    high = np.minimum(centre + half_cols + 1, cols)
+    share = (coupled[high] - coupled[low]) / (high - low)
+    return (share**2).astype(np.float32)

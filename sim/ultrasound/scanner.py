@@ -62,6 +62,10 @@ class ScannerPreset:
     Off in the named presets but `vascular-compound`: each frame costs as much again."""
     compound_angle: float = 0.0
     """The largest steering angle of compounding (rad)."""
+    lost_coupling: tuple[float, float] = (0.0, 0.0)
+    """Shares of the array's width without coupling at its first and last column
+    (`UltrasoundSettings.lost_coupling`): not a machine's setting but how one sweep was held,
+    so the named presets keep full contact and `random_preset` sometimes lifts an edge."""
 
     def __post_init__(self) -> None:
         if not 2.0e6 <= self.centre_frequency <= 20.0e6:
@@ -122,6 +126,7 @@ class ScannerPreset:
             persistence=self.persistence,
             compound_frames=self.compound_frames,
             compound_angle=self.compound_angle,
+            lost_coupling=self.lost_coupling,
         )
 
 
@@ -207,6 +212,12 @@ presets do not compound); drawn after `DRAWN_LAST`, then its angle from
 COMPOUND_ANGLE_RANGE = (0.15, 0.35)
 """Largest steering angle (rad) of a compounding random preset: 9-20 degrees, what compound
 presets of linear arrays use."""
+LOST_COUPLING_P = 0.25
+"""Chance that a random preset's sweep has lost coupling at one edge (drawn after
+compounding: whether, which edge, how much)."""
+LOST_COUPLING_RANGE = (0.05, 0.25)
+"""Share of the array's width that edge loses: a few millimetres to a quarter of the
+image, as a probe rocked onto one edge or short of gel leaves it."""
 
 
 def random_preset(seed: int) -> ScannerPreset:
@@ -218,6 +229,9 @@ def random_preset(seed: int) -> ScannerPreset:
     draw |= {name: float(rng.uniform(*RANDOM_RANGES[name])) for name in DRAWN_LAST}
     compound_frames = int(rng.choice(COMPOUND_FRAMES))
     compound_angle = float(rng.uniform(*COMPOUND_ANGLE_RANGE))  # drawn always: one stream
+    loses_coupling, last_edge = rng.uniform() < LOST_COUPLING_P, rng.uniform() < 0.5
+    lost_share = float(rng.uniform(*LOST_COUPLING_RANGE))  # drawn always: one stream
+    lost = lost_share if loses_coupling else 0.0
     return ScannerPreset(
         name=f"random-{seed}",
         centre_frequency=draw["centre_frequency"],
@@ -236,6 +250,7 @@ def random_preset(seed: int) -> ScannerPreset:
         persistence=draw["persistence"],
         compound_frames=compound_frames,
         compound_angle=compound_angle if compound_frames > 1 else 0.0,
+        lost_coupling=(0.0, lost) if last_edge else (lost, 0.0),
     )
 
 

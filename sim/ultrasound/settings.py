@@ -70,11 +70,13 @@ class UltrasoundSettings:
     the compensation `tgc_attenuation` implies. Empty: no offsets."""
     clutter_db: float | None = None
     """Side-lobe clutter: scatter power (dB) relative to the mean scatter power of the tissue
-    within `clutter_width` at the same depth, added with the tissue's own speckle grain (it is
+    within `active_aperture` at the same depth, added with the tissue's own speckle grain (it is
     that tissue seen through the side lobes). It fills lumens with faint echoes and barely
     changes tissue; None: no clutter."""
-    clutter_width: float = 10.0e-3
-    """Lateral width (m) of the tissue the side lobes see: about the active aperture."""
+    active_aperture: float = 10.0e-3
+    """Width (m) of the elements that form one scan line: the tissue its side lobes see
+    (`clutter_db`), and how far an element without coupling dims its neighbours' lines
+    (`lost_coupling`)."""
     speckle_smoothing: float = 0.0
     """Speckle reduction: Gaussian standard deviation (m) of the scanner's smoothing of the
     log-compressed image, as its speckle-reduction filter and the export's interpolation do
@@ -90,7 +92,14 @@ class UltrasoundSettings:
     """The largest steering angle (rad) of a compounded frame, 0 to 0.35 (20 degrees)."""
     contact_tolerance: float = 0.5e-3
     """Largest gap (m) between a transducer element and the skin that gel still couples;
-    columns whose element is further above the skin stay black."""
+    columns whose element is further above the skin stay black. A line whose element is
+    coupled but part of its active aperture is not is dimmed by the coupled share squared
+    (transmit and receive each scale with it, to first order): images fade into their black
+    margins over half an aperture, as real ones do."""
+    lost_coupling: tuple[float, float] = (0.0, 0.0)
+    """Shares of the array's width, at its first and at its last column, whose elements have
+    lost coupling wherever the probe is (rocked onto one edge, the gel run dry under it): they
+    image nothing, like elements above the skin. Each 0 to 0.5."""
 
     def __post_init__(self) -> None:
         positive = (
@@ -102,7 +111,7 @@ class UltrasoundSettings:
             "scatterer_spacing",
             "specular_angle",
             "dynamic_range_db",
-            "clutter_width",
+            "active_aperture",
             "grey_gamma",
         )
         for name in positive:
@@ -145,6 +154,11 @@ class UltrasoundSettings:
             raise ValueError(
                 f"ultrasound setting compound_angle must be > 0 to compound "
                 f"{self.compound_frames} frames, got 0"
+            )
+        if len(self.lost_coupling) != 2 or not all(0 <= s <= 0.5 for s in self.lost_coupling):
+            raise ValueError(
+                "ultrasound setting lost_coupling must be two shares of the array's width, "
+                f"each 0 to 0.5, got {self.lost_coupling}"
             )
         if len(self.tgc_sliders_db) == 1:
             raise ValueError("ultrasound setting tgc_sliders_db needs at least two sliders, got 1")

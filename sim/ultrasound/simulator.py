@@ -2,9 +2,11 @@
 
 One `render` call: map the pixel grid into the phantom, query the phantom once for every pixel
 centre (tissue, vessel surface, label), find which transducer elements touch the skin, then run
-the two fused kernels of `sim.ultrasound.echo`. Everything is deterministic: the speckle comes
-from scatterers fixed in the phantom frame (seeded by the phantom's seed and subject) and the
-electronic noise from a hash of the pose, so a pose always gives the same frame.
+the two fused kernels of `sim.ultrasound.echo`, each line's echoes scaled by the coupled share
+of its active aperture (`sim.ultrasound.beam.aperture_coupling`). Everything is deterministic:
+the speckle comes from scatterers fixed in the phantom frame (seeded by the phantom's seed and
+subject) and the electronic noise from a hash of the pose, so a pose always gives the same
+frame.
 
 Labels describe what the image shows: the phantom's label at each pixel centre, and 0 where
 the image is black because the column has no skin contact or the pixel lies in air.
@@ -26,7 +28,7 @@ import numpy as np
 
 from sim.phantom import Phantom, TissueSample
 from sim.transforms import is_rigid
-from sim.ultrasound.beam import axial_pulse, elevation_profile, lateral_beam
+from sim.ultrasound.beam import aperture_coupling, axial_pulse, elevation_profile, lateral_beam
 from sim.ultrasound.compounding import accumulate_steered, compound_lines, steering_angles
 from sim.ultrasound.deformation import (
     FrameDeformation,
@@ -156,10 +158,14 @@ class UltrasoundSimulator:
             if smoothing
             else None
         )
-        self._clutter_half_cols = max(1, round(settings.clutter_width / probe.pixel_width / 2))
+        self._aperture_half_cols = max(1, round(settings.active_aperture / probe.pixel_width / 2))
         self._clutter = np.zeros(probe.cols * probe.rows, dtype=np.float32)
         self._clutter_sums = np.empty((probe.cols + 1, probe.rows), dtype=np.float32)
         self._element_x = (np.arange(probe.cols) - (probe.cols - 1) / 2) * probe.pixel_width
+        lost_first, lost_last = (round(share * probe.cols) for share in settings.lost_coupling)
+        self._coupled = np.ones(probe.cols, dtype=bool)
+        self._coupled[:lost_first] = False
+        self._coupled[probe.cols - lost_last :] = False
         count = probe.cols * probe.rows
         self._points = np.empty((count, 3))
         self._echo_real = np.empty((probe.cols, probe.rows), dtype=np.float32)
@@ -180,11 +186,12 @@ class UltrasoundSimulator:
 
     def contact(self, probe_to_phantom: np.ndarray) -> np.ndarray:
         """(cols,) bool: whether each column's transducer element touches the skin (gel gap
-        within `contact_tolerance`, measured along the phantom's z)."""
+        within `contact_tolerance`, measured along the phantom's z) and has not lost its
+        coupling (`lost_coupling`)."""
         elements = probe_to_phantom[:3, 0:1] * self._element_x + probe_to_phantom[:3, 3:4]
         with np.errstate(invalid="ignore"):
             gap = elements[2] - self.phantom.skin_height(elements[0], elements[1])
-            return gap <= self.settings.contact_tolerance
+            return (gap <= self.settings.contact_tolerance) & self._coupled
 
     def _scan(
         self,
@@ -193,14 +200,16 @@ class UltrasoundSimulator:
         col_step: np.ndarray,
         row_step: np.ndarray,
         contact: np.ndarray,
+        coupling: np.ndarray | None,
         speckle_seed: np.uint32,
         frame_key: np.uint32,
         steered: bool = False,
     ) -> TissueSample:
         """One frame's scan lines on the lattice `origin + col * col_step + row * row_step`
         (the beam along `row_step`, `steered` away from the probe's axis or not), through the tissue
-        deformed as `last_deformation` says, into the grey `_image_lines` and `_label_lines`;
-        returns the tissue sampled at the lattice's pixels."""
+        deformed as `last_deformation` says, each line's amplitude scaled by `coupling`
+        (`aperture_coupling`; None: fully coupled), into the grey `_image_lines` and
+        `_label_lines`; returns the tissue sampled at the lattice's pixels."""
         probe = self.probe
         grid_points(origin, col_step, row_step, probe.rows, self._points)
         frame = self.last_deformation
@@ -229,7 +238,7 @@ class UltrasoundSimulator:
                 self._echogenicity,
                 probe.rows,
                 self._clutter_power,
-                self._clutter_half_cols,
+                self._aperture_half_cols,
                 self._clutter_sums,
                 self._clutter,
             )
@@ -267,6 +276,9 @@ class UltrasoundSimulator:
             self._echo_real,
             self._echo_imag,
         )
+        if coupling is not None:
+            self._echo_real *= coupling[:, None]
+            self._echo_imag *= coupling[:, None]
         form_image(
             self._echo_real,
             self._echo_imag,
@@ -306,9 +318,12 @@ class UltrasoundSimulator:
         if load is not None and self.deformation is not None:
             self.last_deformation = self.deformation.frame(pose, load)
         contact = self.contact(pose)
+        coupling = aperture_coupling(contact, self._aperture_half_cols)
         frame_key = np.uint32(zlib.crc32(pose.tobytes(), int(self._seed)))
         if len(self._steering) == 1:
-            sample = self._scan(pose, origin, col_step, row_step, contact, self._seed, frame_key)
+            sample = self._scan(
+                pose, origin, col_step, row_step, contact, coupling, self._seed, frame_key
+            )
         else:
             self._compound_total.fill(0.0)
             self._compound_count.fill(0.0)
@@ -322,6 +337,7 @@ class UltrasoundSimulator:
                     col_step,
                     beam_step,
                     contact,
+                    coupling,
                     self._seed if unsteered else mix_seed(int(self._seed), k),
                     frame_key if unsteered else mix_seed(int(frame_key), k),
                     steered=not unsteered,
