@@ -147,6 +147,18 @@ SPREAD_RULE = (
 )
 
 
+def scanned_text(preset: dict) -> tuple[str, str]:
+    """(the phantom, how it was imaged) of an experiment preset's `to_dict()`, for a report's
+    opening sentence."""
+    scans = preset["scans"]
+    name, scanner = scans["phantom"], scans["scanner"]
+    phantom = "the gel-block phantom" if name is None else f"the `{name}` phantom"
+    imaging = "" if scanner is None else f", imaged through the `{scanner}` preset"
+    if scans["centre_on_vessels"]:
+        imaging += ", each sweep centred on its subject's artery and vein"
+    return phantom, imaging
+
+
 def write_phantom_report(out: Path, phantom: PhantomResults, figures: ReportFigures) -> Path:
     """report.md, results.json and figures of the phantom experiment."""
     out = Path(out)
@@ -159,10 +171,11 @@ def write_phantom_report(out: Path, phantom: PhantomResults, figures: ReportFigu
         "| trained on scan A | " + " | ".join(f"tested on scan B {t}" for t in tests) + " |",
         "| --- |" + " --- |" * len(tests),
     ]
+    scanned, imaging = scanned_text(results["preset"])
     lines = [
         f"# Phantom experiment (Table I analogue), preset {results['preset']['name']}",
         "",
-        "Two scans of the gel-block phantom (nominal anatomy): scan A trains, scan B tests "
+        f"Two scans of {scanned} (nominal anatomy{imaging}): scan A trains, scan B tests "
         "(another start point and a tilt). Mean vessel IoU (artery and vein averaged): mean ± "
         f"sample standard deviation over {seeds_text(results['seeds'])}.",
         "",
@@ -241,11 +254,12 @@ def write_subjects_report(out: Path, subjects: SubjectsResults, figures: ReportF
     titles = (f"trained without subject {first}", f"held-out subject {first}")
     curves = _write_json_and_figures(out, results, figures, titles)
     run = {r: e for r, e in loso["regimes"].items() if e["status"] == "run"}
+    scanned, imaging = scanned_text(results["preset"])
     lines = [
         f"# Subjects experiment (Table II analogue), preset {results['preset']['name']}",
         "",
-        "Leave-one-subject-out over simulated subjects (variants of the gel-block phantom: "
-        "anatomy, echogenicity and noise differ). Each cell: vessel IoU (artery and vein "
+        f"Leave-one-subject-out over simulated subjects (variants of {scanned}: anatomy, "
+        f"echogenicity and noise differ{imaging}). Each cell: vessel IoU (artery and vein "
         "averaged) on the held-out subject's frames, pooled over its frames, of a model "
         "trained on the other subjects: mean ± sample standard deviation over "
         f"{seeds_text(results['seeds'])}; the average is taken over subjects seed by seed. "

@@ -66,3 +66,15 @@ def test_the_phantom_and_scanner_flags_reach_the_scan_settings():
     assert scans.centre_on_vessels
     default = experiment_preset("quick", None)
     assert default.scans.phantom is None and not default.scans.centre_on_vessels
+
+
+def test_reports_name_what_was_scanned_and_how():
+    from resus.experiments.report import scanned_text
+
+    femoral = experiment_preset("quick", None, "femoral", "vascular").to_dict()
+    assert scanned_text(femoral) == (
+        "the `femoral` phantom",
+        ", imaged through the `vascular` preset, each sweep centred on its subject's artery "
+        "and vein",
+    )
+    assert scanned_text(experiment_preset("quick", None).to_dict()) == ("the gel-block phantom", "")
