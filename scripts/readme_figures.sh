@@ -2,13 +2,16 @@
 # The README's figures of `resus demo` and `resus experiment phantom|subjects`, regenerated
 # into docs/ exactly as the README quotes them, so that they never drift from the code:
 #
-#     bash scripts/readme_figures.sh [demo] [phantom] [subjects]   # default: all three
+#     bash scripts/readme_figures.sh [demo] [phantom] [subjects] [femoral]   # default: all four
 #
 #   demo      a fresh `resus demo` at its defaults; its report, summary.json and pictures
 #             go to docs/demo/ (about 8 minutes on an idle 2-core CPU)
 #   phantom   `resus experiment phantom --preset quick` into docs/experiment_phantom_quick/
 #   subjects  `resus experiment subjects --preset quick` into docs/experiment_subjects_quick/
 #             (4 subjects x 3 regimes x 3 seeds: about an hour on 2 cores)
+#   femoral   both tables on the femoral phantom through the vascular preset, into
+#             docs/experiment_{phantom,subjects}_femoral_quick/ (regimes us, aug, resus at
+#             2 seeds: about 20 minutes on 2 cores)
 #
 # Scans and finished training runs are cached in $RESUS_FIGURES_CACHE (default
 # /tmp/resus_readme_figures): a rerun after a crash trains only what had not finished. The
@@ -20,11 +23,11 @@ cd "$(dirname "$0")/.."
 python="${PYTHON:-python}"
 cache="${RESUS_FIGURES_CACHE:-/tmp/resus_readme_figures}"
 parts=("$@")
-[ ${#parts[@]} -gt 0 ] || parts=(demo phantom subjects)
+[ ${#parts[@]} -gt 0 ] || parts=(demo phantom subjects femoral)
 for part in "${parts[@]}"; do
     case "$part" in
-        demo | phantom | subjects) ;;
-        *) echo "error: unknown part '$part'; choose demo, phantom or subjects" >&2; exit 2 ;;
+        demo | phantom | subjects | femoral) ;;
+        *) echo "error: unknown part '$part'; choose demo, phantom, subjects or femoral" >&2; exit 2 ;;
     esac
 done
 mkdir -p "$cache"
@@ -44,6 +47,17 @@ experiment() {
         --data "$cache/quick_data"
 }
 
+femoral() {
+    local femoral=(--preset quick --phantom femoral --scanner vascular --data "$cache/femoral_data")
+    "$python" -m resus experiment phantom "${femoral[@]}" --out docs/experiment_phantom_femoral_quick
+    "$python" -m resus experiment subjects "${femoral[@]}" --regimes us,aug,resus --seeds 2 \
+        --out docs/experiment_subjects_femoral_quick
+}
+
 for part in "${parts[@]}"; do
-    if [ "$part" = demo ]; then demo; else experiment "$part"; fi
+    case "$part" in
+        demo) demo ;;
+        femoral) femoral ;;
+        *) experiment "$part" ;;
+    esac
 done
