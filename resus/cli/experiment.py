@@ -40,23 +40,27 @@ ReportFolderOption = Annotated[
 ]
 PresetOption = Annotated[str, typer.Option(help="quick (2-core CPU) or paper (GPU).")]
 DataOption = Annotated[
-    Path | None, typer.Option(help="Scratch folder for sweeps and volumes [OUT/data].")
+    Path | None, typer.Option(help="Scratch folder for sweeps and volumes (default: OUT/data).")
 ]
 FirstSeedOption = Annotated[int, typer.Option(help="First training seed.")]
 ExperimentPhantomOption = Annotated[
     str | None,
     typer.Option(
-        help="Phantom spec name or YAML path [the gel block]; each sweep is centred on its "
-        "subject's artery and vein."
+        help="Phantom spec name or YAML path (default: the gel block); each sweep is centred "
+        "on its subject's artery and vein."
     ),
 ]
 ExperimentScannerOption = Annotated[
     str | None,
-    typer.Option(help="Scanner preset imaging every sweep [the simulator's own settings]."),
+    typer.Option(
+        help="Scanner preset imaging every sweep (default: the simulator's own settings)."
+    ),
 ]
 SeedsOption = Annotated[
     int | None,
-    typer.Option(help="Training seeds per model (--seed, --seed + 1, ...) [preset's: 3]."),
+    typer.Option(
+        help="Training seeds per model (--seed, --seed + 1, ...; default: the preset's, 3)."
+    ),
 ]
 
 
@@ -175,7 +179,7 @@ def register(app: typer.Typer) -> None:
         scanner: ExperimentScannerOption = None,
         subjects: Annotated[
             str | None,
-            typer.Option(help="K (subjects 0..K-1), or e.g. 0-5 or 0,2,5 [preset's]."),
+            typer.Option(help="K (subjects 0..K-1), or e.g. 0-5 or 0,2,5 (default: the preset's)."),
         ] = None,
         regimes: Annotated[str, typer.Option(help=REGIME_HELP)] = "us,imagenet,aug,resus",
         weights: WeightsOption = None,

@@ -38,7 +38,7 @@ def register(group: typer.Typer) -> None:
             ),
         ] = None,
         data: Annotated[
-            Path | None, typer.Option(help="Scratch folder for the sweeps [OUT/data].")
+            Path | None, typer.Option(help="Scratch folder for the sweeps (default: OUT/data).")
         ] = None,
         seed: Annotated[int, typer.Option(help="Phantom, scanner, split and training seed.")] = 0,
         device: DeviceOption = "auto",

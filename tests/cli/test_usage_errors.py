@@ -113,6 +113,18 @@ def test_every_command_has_a_bad_value_case():
     assert {("sweep", "preview"), ("experiment", "subjects"), ("calibrate-time",)} <= set(COMMANDS)
 
 
+def test_no_help_text_holds_brackets_the_help_renderer_would_swallow():
+    """Rich reads `[...]` in a help text as markup and drops it: `[default: OUT/data]` would
+    show as nothing. Defaults go in parentheses."""
+    swallowed = [
+        f"{' '.join(path)} {param.name}: {param.help}"
+        for path, command in COMMANDS.items()
+        for param in command.params
+        if "[" in (getattr(param, "help", None) or "")
+    ]
+    assert not swallowed
+
+
 @pytest.mark.parametrize("path", list(COMMANDS), ids=ids(COMMANDS))
 def test_unknown_option(monkeypatch, capsys, path):
     status, _, err = run_main(monkeypatch, capsys, *path, "--no-such-option")
