@@ -86,14 +86,12 @@ def elevation_profile(
     return offsets, _normalised(weights, offsets, settings.scatterer_spacing)
 
 
-def aperture_coupling(contact: np.ndarray, half_cols: int) -> np.ndarray | None:
+def aperture_coupling(contact: np.ndarray, half_cols: int) -> np.ndarray:
     """(cols,) float32 amplitude factor of each scan line: the coupled share of its active
     aperture (its column +- `half_cols`, cut at the array's ends) squared, since the transmitted
-    pressure and the receive sensitivity each scale with it to first order. None when every
-    element is coupled or none is: then no line is dimmed."""
+    pressure and the receive sensitivity each scale with it to first order (1 everywhere when
+    every element is coupled)."""
     contact = np.asarray(contact, dtype=bool)
-    if contact.all() or not contact.any():
-        return None
     cols = len(contact)
     coupled = np.concatenate(([0], np.cumsum(contact)))
     centre = np.arange(cols)

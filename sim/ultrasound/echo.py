@@ -324,15 +324,18 @@ def form_image(
     material: np.ndarray,
     label: np.ndarray,
     contact: np.ndarray,
+    line_gain: np.ndarray,
     image: np.ndarray,
     label_image: np.ndarray,
 ) -> None:
     """B-mode `image` and masked `label_image`, both (cols, rows) uint8 (transpose for display),
     from the IQ scan lines.
 
-    `lateral` (taps, rows): the per-row lateral beam; `tgc` (rows,): time-gain compensation
-    (amplitude factors). Grey level = `grey_per_log2 * log2(envelope^2) + grey_offset`, clipped,
-    then looked up in `grey_map` (256 uint8 entries).
+    `lateral` (taps, rows): the per-row lateral beam; `line_gain` (cols,): each line's echo
+    amplitude factor (its aperture's coupling), before the receiver's noise is added; `tgc`
+    (rows,): time-gain compensation (amplitude factors). Grey level =
+    `grey_per_log2 * log2(envelope^2) + grey_offset`, clipped, then looked up in `grey_map`
+    (256 uint8 entries).
     """
     cols, rows = echo_real.shape
     grey_scale = np.float32(grey_per_log2)
@@ -355,10 +358,11 @@ def form_image(
                 acc_im[row] += kernel[row] * source_im[row]
         power = np.empty(rows, dtype=np.float32)
         first = col * rows
+        gain = line_gain[col]
         for row in range(rows):
             noise_re, noise_im = unit_pair(mix32(np.uint32(frame_key + np.uint32(first + row))))
-            re = (acc_re[row] + noise_amplitude * noise_re) * tgc[row]
-            im = (acc_im[row] + noise_amplitude * noise_im) * tgc[row]
+            re = (gain * acc_re[row] + noise_amplitude * noise_re) * tgc[row]
+            im = (gain * acc_im[row] + noise_amplitude * noise_im) * tgc[row]
             power[row] = re * re + im * im + _TINY_POWER
         log_power = fast_log2(power)
         for row in range(rows):

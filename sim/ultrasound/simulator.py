@@ -200,7 +200,7 @@ class UltrasoundSimulator:
         col_step: np.ndarray,
         row_step: np.ndarray,
         contact: np.ndarray,
-        coupling: np.ndarray | None,
+        coupling: np.ndarray,
         speckle_seed: np.uint32,
         frame_key: np.uint32,
         steered: bool = False,
@@ -208,8 +208,8 @@ class UltrasoundSimulator:
         """One frame's scan lines on the lattice `origin + col * col_step + row * row_step`
         (the beam along `row_step`, `steered` away from the probe's axis or not), through the tissue
         deformed as `last_deformation` says, each line's amplitude scaled by `coupling`
-        (`aperture_coupling`; None: fully coupled), into the grey `_image_lines` and
-        `_label_lines`; returns the tissue sampled at the lattice's pixels."""
+        (`aperture_coupling`), into the grey `_image_lines` and `_label_lines`; returns the
+        tissue sampled at the lattice's pixels."""
         probe = self.probe
         grid_points(origin, col_step, row_step, probe.rows, self._points)
         frame = self.last_deformation
@@ -276,9 +276,6 @@ class UltrasoundSimulator:
             self._echo_real,
             self._echo_imag,
         )
-        if coupling is not None:
-            self._echo_real *= coupling[:, None]
-            self._echo_imag *= coupling[:, None]
         form_image(
             self._echo_real,
             self._echo_imag,
@@ -292,6 +289,7 @@ class UltrasoundSimulator:
             sample.material,
             sample.label,
             contact,
+            coupling,
             self._image_lines,
             self._label_lines,
         )

@@ -204,6 +204,7 @@ def render_layers(attenuation: np.ndarray, impedance: np.ndarray | None = None) 
         np.zeros(count, np.int8),
         np.zeros(count, np.uint8),
         contact,
+        np.ones(cols, np.float32),  # every line fully coupled
         image,
         labels,
     )
