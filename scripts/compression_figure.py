@@ -25,6 +25,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from figure_output import save_figure
 
 from resus.acquisition.patterns import CompressionPattern
 from resus.acquisition.simulation import resolve_scene, simulate_sweep
@@ -74,10 +75,7 @@ def main() -> None:
         axis.contour(sweep.labels[index] == ARTERY, levels=[0.5], colors="tab:red")
         axis.set_title(f"{title}: {force[index]:.1f} N", fontsize=9)
         axis.axis("off")
-    figure.tight_layout()
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(args.out, dpi=110)
-    print(f"wrote {args.out}")
+    save_figure(figure, args.out, dpi=110)
     print(
         json.dumps(
             {

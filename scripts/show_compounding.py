@@ -20,6 +20,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from figure_output import outlined_bmode, save_figure
 
 from sim.phantom import Phantom, load_phantom
 from sim.ultrasound.deformation import TissueLoad
@@ -58,17 +59,13 @@ def main() -> None:
             elapsed = time.perf_counter() - start
             patch = image[FAT_PATCH].astype(np.float64)
             spread = patch.std() / patch.mean()
-            axes[i, j].imshow(image, cmap="gray", vmin=0, vmax=255)
-            axes[i, j].contour(labels > 0, [0.5], colors="yellow", linewidths=0.6)
-            axes[i, j].set_title(
+            outlined_bmode(
+                axes[i, j],
+                image,
+                labels,
                 f"{name}, {view}\n{elapsed * 1e3:.0f} ms, fat sd/mean {spread:.2f}",
-                fontsize=9,
             )
-            axes[i, j].axis("off")
-    figure.tight_layout()
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(args.out, dpi=80)
-    print(f"wrote {args.out}")
+    save_figure(figure, args.out, dpi=80)
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ import dataclasses
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+from figure_output import outlined_bmode, save_figure
 
 from sim.phantom import Phantom, load_phantom
 from sim.ultrasound.deformation import TissueLoad
@@ -46,18 +47,13 @@ def main() -> None:
         simulator = UltrasoundSimulator(phantom, vascular.probe(), settings)
         image, labels = simulator.render(pose, load)
         coupled = int(simulator.contact(pose).sum())
-        axes[0, j].imshow(image, cmap="gray", vmin=0, vmax=255, aspect="auto")
-        axes[0, j].contour(labels > 0, [0.5], colors="yellow", linewidths=0.6)
-        axes[0, j].set_title(f"{title}\n{coupled} of {image.shape[1]} elements coupled", fontsize=9)
-        axes[0, j].axis("off")
+        title = f"{title}\n{coupled} of {image.shape[1]} elements coupled"
+        outlined_bmode(axes[0, j], image, labels, title, aspect="auto")
         axes[1, j].plot(image.mean(axis=0), color="black", linewidth=0.8)
         axes[1, j].set_ylim(0, 120)
         axes[1, j].set_xlabel("column", fontsize=8)
         axes[1, j].set_ylabel("mean grey", fontsize=8)
-    figure.tight_layout()
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(args.out, dpi=80)
-    print(f"wrote {args.out}")
+    save_figure(figure, args.out, dpi=80)
 
 
 if __name__ == "__main__":

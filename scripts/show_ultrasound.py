@@ -18,6 +18,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from figure_output import save_figure
 from tqdm import tqdm
 
 from sim.phantom import ARTERY, VEIN, Phantom, load_phantom, make_subject
@@ -101,10 +102,7 @@ def main() -> None:
         axis.set_ylabel("depth (mm)", fontsize=8)
         axis.tick_params(labelsize=7)
     figure.suptitle("Synthetic B-mode (red: artery, blue: vein outlines from the phantom)")
-    figure.tight_layout()
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(args.out, dpi=110)
-    print(f"wrote {args.out}")
+    save_figure(figure, args.out, dpi=110)
 
 
 if __name__ == "__main__":
