@@ -1,11 +1,13 @@
 """`resus experiment`: tiny end-to-end runs of both tables, their reports, and the CLI's errors."""
 
+import dataclasses
 import json
 import re
 import statistics
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 import torch
 from tiny_experiment import TINY
@@ -103,6 +105,31 @@ def test_phantom_report_table_equals_results_json(tmp_path):
         assert f"**{comparison['verdict']}**" in report
     assert saved["scans"]["B"]["reslices"] > 0
     assert (options.out / "predictions.png").is_file()
+
+
+@pytest.mark.parametrize("kept", ["us", "resus"])
+def test_subjects_report_is_written_whichever_regimes_ran(subjects_run, tmp_path, kept):
+    """Without resus there is nothing to compare against (no p columns); without us no
+    generalisation check: either way the report is written, as `--regimes us,aug` asks."""
+    from resus.experiments.report import ReportFigures, write_subjects_report
+    from resus.experiments.tables import Example
+
+    _, results = subjects_run
+    loso = dataclasses.replace(results.loso, iou={kept: results.loso.iou[kept]})
+    only = dataclasses.replace(
+        results,
+        loso=loso,
+        validation_iou={kept: results.validation_iou[kept]},
+        training_images={kept: results.training_images[kept]},
+        generalisation=results.generalisation if kept == "us" else None,
+    )
+    truth = np.zeros((32, 32), np.uint8)
+    truth[8:16, 8:16] = 1
+    example = Example("held-out frame", truth * 200, truth, {kept: truth})
+    write_subjects_report(tmp_path, only, ReportFigures([example], {}))
+    report = (tmp_path / "report.md").read_text()
+    assert f"| held-out subject | {kept} |" in report
+    assert ("p vs resus" in report) == (kept == "resus")
 
 
 @pytest.mark.parametrize(
