@@ -271,20 +271,15 @@ def write_subjects_report(out: Path, subjects: SubjectsResults, figures: ReportF
         "Artery / vein IoU, averaged over subjects:",
         "",
     ]
-    against_resus = "resus" in run  # the p columns need resus among the regimes that ran
-    columns = ["regime", "artery", "vein"]
-    if against_resus:
-        columns += ["artery p vs resus", "vein p vs resus"]
+    classes = ("artery", "vein")
+    # the p columns need resus among the regimes that ran
+    against = {c: comparisons_against(loso, "resus", c) for c in classes} if "resus" in run else {}
+    columns = ["regime", *classes, *(f"{c} p vs resus" for c in against)]
     lines += ["| " + " | ".join(columns) + " |", "|" + " --- |" * len(columns)]
-    against = {c: comparisons_against(loso, "resus", c) for c in ("artery", "vein")}
     for regime, entry in run.items():
         mean = entry["mean_over_subjects"]
-        cells = [regime, spread_text(mean, "artery"), spread_text(mean, "vein")]
-        if against_resus:
-            cells += [
-                _p(against[c][regime]["p_value"]) if regime != "resus" else ""
-                for c in ("artery", "vein")
-            ]
+        cells = [regime, *(spread_text(mean, c) for c in classes)]
+        cells += [_p(by[regime]["p_value"]) if regime != "resus" else "" for by in against.values()]
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "## Every pair of regimes", ""]
     lines += [f"- {comparison_text(comparison)}" for comparison in loso["comparisons"]]
