@@ -15,6 +15,7 @@ from sim.ultrasound.probe import LinearProbe
 from sim.ultrasound.scanner import (
     PRESETS,
     RANDOM_RANGES,
+    TGC_ATTENUATION_RANGE,
     ScannerPreset,
     random_preset,
     scanner_preset,
@@ -108,6 +109,22 @@ def test_higher_frequency_attenuates_more_with_depth(phantom) -> None:
         expected = -2.0 * gel_attenuation * frequency / 1e6 * 255.0 / 80.0
         assert slopes[-1] == pytest.approx(expected, rel=0.15)
     assert slopes[1] == pytest.approx(2.0 * slopes[0], rel=0.15)
+
+
+@pytest.mark.parametrize("compensated_share", [0.0, 0.5, 1.0])
+def test_tgc_undoes_the_attenuation_it_is_set_for(phantom, compensated_share: float) -> None:
+    """A TGC set for attenuation a over tissue that attenuates alpha leaves grey falling at
+    2 (alpha - a) f dB per cm: flat when it compensates all of it, half as steep for half."""
+    preset = dataclasses.replace(PLAIN, gain_db=50.0, dynamic_range_db=80.0)
+    gel_attenuation = phantom.spec.layers[0].attenuation_db_cm_mhz
+    compensated = dataclasses.replace(preset, tgc_attenuation=compensated_share * gel_attenuation)
+    image = render(phantom, compensated)[0]
+    depth_cm = (np.arange(SMALL_PROBE.rows) + 0.5) * preset.depth / SMALL_PROBE.rows * 100
+    rows = slice(20, 150)  # clear of the face and of the clipped floor
+    slope = np.polyfit(depth_cm[rows], image[rows].mean(axis=1), 1)[0]
+    frequency_mhz = preset.centre_frequency / 1e6
+    expected = -2.0 * (1 - compensated_share) * gel_attenuation * frequency_mhz * 255.0 / 80.0
+    assert slope == pytest.approx(expected, abs=0.1 * abs(2.0 * gel_attenuation * 10 * 255 / 80))
 
 
 def test_more_gain_is_brighter_by_the_grey_levels_per_db(phantom) -> None:
@@ -209,6 +226,9 @@ def test_random_presets_are_seeded_and_within_their_ranges() -> None:
         assert low <= preset.centre_frequency <= high
         assert preset.focal_depth < preset.depth
         assert len(preset.tgc_sliders_db) == 8
+        assert preset.tgc_attenuation is not None
+        assert TGC_ATTENUATION_RANGE[0] <= preset.tgc_attenuation <= TGC_ATTENUATION_RANGE[1]
+        assert preset.settings().tgc_attenuation == preset.tgc_attenuation
     assert scanner_preset("random-3") == random_preset(3)
     assert scanner_preset("vascular") is PRESETS["vascular"]
 
