@@ -23,6 +23,11 @@ the within-window std of the grey levels, compared with the log-compressed Rayle
 `rayleigh_grey_std` where the dynamic range is known (the simulator's), the per-window grey
 SNR (mean/std), and the speckle grain: the full widths at half maximum of the windows' 2-D
 autocorrelation along the rows (axial) and the columns (lateral), in pixels.
+
+Depth. The imaged area's rows are cut into `DEPTH_BANDS` equal bands from the face down, and
+the tissue's mean grey in each is the depth profile: real exports mostly darken with depth
+(attenuation that the TGC does not wholly undo), and a simulator whose images brighten with
+depth teaches a network that vessels are dark holes in a bright floor.
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ import json
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
+from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -58,6 +64,8 @@ exponential: I = I0 E with E ~ Exp(1). Log compression shows 20 log10 A = 10 log
 1), so the standard deviation is (10 / ln 10) pi / sqrt(6) = 5.57 dB, whatever I0 (the
 tissue's echogenicity, the gain, the TGC) is.
 """
+DEPTH_BANDS = 5
+"""Equal bands of the imaged area's depth in the depth profile (fifths)."""
 QUANTILES = (0.1, 0.25, 0.5, 0.75, 0.9)
 """Which quantiles of the per-window grey SNR are reported."""
 REALISM_JSON = "realism.json"
@@ -199,6 +207,13 @@ class RealismStats:
     """20 log10(lumen_tissue): a contrast of grey levels, that is, after log compression."""
     cnr: float | None
     """Contrast-to-noise ratio |tissue - lumen| / sqrt(var tissue + var lumen)."""
+    depth_profile: tuple[float | None, ...]
+    """Mean tissue grey of each of the `DEPTH_BANDS` depth bands, face first (None for a
+    band without tissue)."""
+    depth_falloff: float | None
+    """The deepest band's tissue grey over the second's: below 1, the image darkens with
+    depth. The second band, not the first, because the first holds the skin and the probe's
+    near field."""
     speckle: SpeckleStats | None
     """None when no window qualifies."""
 
@@ -214,6 +229,11 @@ def _speckle(get: Callable[[SpeckleStats], float | None]) -> Callable[[RealismSt
     return lambda stats: None if stats.speckle is None else get(stats.speckle)
 
 
+def _band(band: int) -> Callable[[RealismStats], float | None]:
+    """A table row's getter of one depth band's tissue grey."""
+    return lambda stats: stats.depth_profile[band]
+
+
 TABLE: tuple[TableRow, ...] = (
     ("mean grey", lambda s: s.mean, 1),
     ("median grey", lambda s: s.median, 1),
@@ -224,6 +244,8 @@ TABLE: tuple[TableRow, ...] = (
     ("95th percentile", lambda s: s.p95, 1),
     ("contrast (dB)", lambda s: s.contrast_db, 2),
     ("CNR", lambda s: s.cnr, 3),
+    *((f"tissue grey, depth fifth {band + 1}", _band(band), 1) for band in range(DEPTH_BANDS)),
+    ("deepest / second fifth", lambda s: s.depth_falloff, 3),
     ("speckle std (grey)", _speckle(lambda s: s.std), 2),
     ("speckle std / Rayleigh", _speckle(lambda s: s.std_to_rayleigh), 3),
     ("implied dynamic range (dB)", _speckle(lambda s: s.implied_dynamic_range_db), 1),
@@ -375,6 +397,8 @@ class _Accumulator:
         self.settings = settings
         self.tissue = np.zeros(GREY_LEVELS, np.int64)
         self.lumen = np.zeros(GREY_LEVELS, np.int64)
+        self.band_sums = np.zeros(DEPTH_BANDS)
+        self.band_pixels = np.zeros(DEPTH_BANDS, np.int64)
         self.window_means: list[np.ndarray] = []
         self.window_variances: list[np.ndarray] = []
         size = settings.grain_patch
@@ -388,6 +412,11 @@ class _Accumulator:
         image, vessel = image[region], vessel[region]
         self.tissue += np.bincount(image[~vessel], minlength=GREY_LEVELS)
         self.lumen += np.bincount(image[vessel], minlength=GREY_LEVELS)
+        edges = np.arange(DEPTH_BANDS + 1) * image.shape[0] // DEPTH_BANDS
+        for band, (top, bottom) in enumerate(pairwise(edges)):
+            tissue = image[top:bottom][~vessel[top:bottom]]
+            self.band_sums[band] += tissue.sum(dtype=np.float64)
+            self.band_pixels[band] += tissue.size
         usable = ~vessel
         if vessel.any() and self.settings.vessel_margin > 0:
             usable = ndimage.distance_transform_edt(usable) >= self.settings.vessel_margin
@@ -401,6 +430,13 @@ class _Accumulator:
             correlations = np.fft.irfft2(np.abs(spectrum) ** 2, s=self.correlation.shape)
             self.correlation += (correlations / correlations[:, :1, :1]).sum(axis=0)
             self.grain_patches += len(grains)
+
+    def depth_profile(self) -> tuple[float | None, ...]:
+        """Mean tissue grey of each depth band (None where a band had no tissue)."""
+        return tuple(
+            float(total / pixels) if pixels else None
+            for total, pixels in zip(self.band_sums, self.band_pixels, strict=True)
+        )
 
     def speckle(self, dynamic_range_db: float | None) -> SpeckleStats | None:
         means = np.concatenate(self.window_means)
@@ -481,6 +517,9 @@ def measure(images: ImageSet, settings: RealismSettings | None = None) -> Realis
         contrast = 20.0 * math.log10(ratio) if ratio > 0 else None
         noise = math.sqrt(tissue_variance + lumen_variance)
         cnr = abs(tissue_mean - lumen_mean) / noise if noise > 0 else None
+    profile = sums.depth_profile()
+    second, deepest = profile[1], profile[-1]
+    falloff = deepest / second if second and deepest is not None else None
     return RealismStats(
         name=images.name,
         images=len(images),
@@ -495,6 +534,8 @@ def measure(images: ImageSet, settings: RealismSettings | None = None) -> Realis
         lumen_tissue=ratio,
         contrast_db=contrast,
         cnr=cnr,
+        depth_profile=profile,
+        depth_falloff=falloff,
         speckle=sums.speckle(images.dynamic_range_db),
     )
 
@@ -551,13 +592,13 @@ def _with_vessels(images: ImageSet, count: int) -> list[int]:
 
 
 def save_histograms_png(path: str | Path, comparison: RealismComparison) -> Path:
-    """Both sets' grey-level histograms overlaid, and bars of the table's grey figures and of
-    the lumen/tissue ratio; credited."""
+    """Both sets' grey-level histograms overlaid, bars of the table's grey figures and of the
+    lumen/tissue ratio, and their depth profiles; credited."""
     from matplotlib.figure import Figure
 
     sets = (comparison.simulated, comparison.real)
-    figure = Figure(figsize=(15, 4.4))
-    histogram, greys, ratios = figure.subplots(1, 3, width_ratios=(2.2, 2.0, 0.9))
+    figure = Figure(figsize=(19, 4.4))
+    histogram, greys, ratios, depths = figure.subplots(1, 4, width_ratios=(2.2, 2.0, 0.9, 1.4))
     for stats in sets:
         colour = SET_COLOURS.get(stats.name)
         label = f"{stats.name} ({stats.images} images)"
@@ -577,6 +618,8 @@ def save_histograms_png(path: str | Path, comparison: RealismComparison) -> Path
         colour = SET_COLOURS.get(stats.name)
         greys.bar(np.arange(len(figures)) + offset, values, width, color=colour, label=stats.name)
         ratios.bar(offset, stats.lumen_tissue or 0.0, width, color=colour, label=stats.name)
+        profile = [np.nan if grey is None else grey for grey in stats.depth_profile]
+        depths.plot(profile, np.arange(DEPTH_BANDS) + 1, "o-", color=colour, label=stats.name)
     greys.set_xticks(np.arange(len(figures)), [label for label, _ in figures])
     greys.set_ylim(0, GREY_LEVELS - 1)
     greys.set_ylabel("grey level")
@@ -585,6 +628,13 @@ def save_histograms_png(path: str | Path, comparison: RealismComparison) -> Path
     ratios.set_xticks([0], ["lumen/tissue"])
     ratios.set_ylim(0, 1)
     ratios.set_title("lumen/tissue mean")
+    depths.set_ylim(DEPTH_BANDS + 0.5, 0.5)  # the face at the top, as in the image
+    depths.set_yticks(np.arange(DEPTH_BANDS) + 1)
+    depths.set_xlim(0, GREY_LEVELS - 1)
+    depths.set_xlabel("tissue mean grey")
+    depths.set_ylabel("depth fifth of the imaged area")
+    depths.set_title("grey by depth")
+    depths.legend()
     figure.suptitle(f"simulated vs real grey levels   ({REAL_CREDIT})")
     figure.tight_layout()
     return _save(figure, Path(path), 90)

@@ -97,6 +97,26 @@ def test_black_margins_are_stripped_but_dark_tissue_and_marks_are_not() -> None:
     assert imaged_region(np.zeros((8, 8), np.uint8)) == (slice(0, 0), slice(0, 0))
 
 
+def test_depth_profile_is_the_tissue_mean_of_each_fifth_of_the_imaged_area() -> None:
+    """Rows graded by depth under a black top margin; a lumen of its own grey in the fourth
+    fifth is left out of that band's tissue mean."""
+    inner = np.repeat(np.arange(100, 0, -1, dtype=np.uint8)[:, None] + 50, 40, axis=1)
+    lumen = disc(inner.shape, (70, 20), 6)
+    inner[lumen] = 10
+    image = np.zeros((130, 40), np.uint8)
+    image[30:] = inner
+    vessel = np.zeros(image.shape, bool)
+    vessel[30:] = lumen
+    stats = measure(one_image(image, vessel))
+    expected = [
+        inner[k * 20 : (k + 1) * 20][~lumen[k * 20 : (k + 1) * 20]].mean() for k in range(5)
+    ]
+    np.testing.assert_allclose(stats.depth_profile, expected)
+    assert stats.depth_profile[0] == pytest.approx(140.5)  # rows of grey 150 down to 131
+    assert stats.depth_falloff == pytest.approx(expected[4] / expected[1])
+    assert stats.depth_falloff < 1  # darker with depth
+
+
 def test_an_all_black_set_is_refused() -> None:
     with pytest.raises(ResusError, match="no imaged tissue"):
         measure(one_image(np.zeros((32, 32), np.uint8)))
