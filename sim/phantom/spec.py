@@ -24,6 +24,8 @@ BODY_KINDS = ("block", "leg")
 DEFAULT_TEXTURE_SCALE = (2.5e-3, 8.0e-3, 1.5e-3)
 """Texture lattice spacing (m) along x, y, z (see `PhantomSpec.texture_scale`)."""
 SIDES = ("right", "left")
+CENTIMETRES_PER_METRE = 100.0
+"""Attenuation is given per centimetre (dB/cm/MHz), lengths in metres."""
 
 
 @dataclass(frozen=True)
@@ -232,6 +234,17 @@ class PhantomSpec:
             raise ValueError(
                 f"texture_scale must be three positive lengths, got {self.texture_scale}"
             )
+
+    def attenuation_below_skin(self, depths: np.ndarray) -> np.ndarray:
+        """One-way attenuation (dB/MHz) the layers put between the skin and each of `depths`
+        (m, along the skin normal): each layer's dB/cm/MHz times the centimetres of it above
+        that depth, the layers at their own thickness. What a TGC curve must undo for the
+        layered tissue to look evenly bright."""
+        thickness = np.array([layer.thickness for layer in self.layers])
+        tops = np.concatenate([[0.0], np.cumsum(thickness[:-1])])
+        alpha = np.array([layer.attenuation_db_cm_mhz for layer in self.layers])
+        inside = np.clip(np.asarray(depths, dtype=np.float64)[..., None] - tops, 0.0, thickness)
+        return (inside * alpha).sum(axis=-1) * CENTIMETRES_PER_METRE
 
     @property
     def lateral_sign(self) -> float:

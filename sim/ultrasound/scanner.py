@@ -43,13 +43,16 @@ class ScannerPreset:
     f_number: float = 2.0
     """Focal depth over active aperture; with the wavelength it sets the lateral beam width."""
     fractional_bandwidth: float = 0.7
-    gain_db: float = 20.0
+    gain_db: float = 25.0
+    """Display gain (dB; `UltrasoundSettings.gain_db`). 25 dB: the default preset's tissue on
+    the `femoral` phantom at about the mean grey of real exports (45-50), its TGC undoing the
+    layers (20 dB until that TGC came, 2026-12-04)."""
     dynamic_range_db: float = 60.0
     tgc_sliders_db: tuple[float, ...] = ()
     tgc_attenuation: float | None = None
     """Attenuation the TGC curve undoes (dB/cm/MHz; `UltrasoundSettings.tgc_attenuation`).
-    None: the phantom's deepest layer, an evenly bright deep image; the named presets keep
-    that, `random_preset` draws it from `TGC_ATTENUATION_RANGE`."""
+    None: the phantom's layers, each undone over its own depths (evenly bright tissue); the
+    named presets keep that, `random_preset` draws it from `TGC_ATTENUATION_RANGE`."""
     grey_gamma: float = 1.5
     speckle_smoothing: float = 0.15e-3
     """Gaussian sigma (m) of the speckle-reduction filter."""
@@ -228,11 +231,12 @@ image, as a probe rocked onto one edge or short of gel leaves it."""
 
 
 TGC_ATTENUATION_RANGE = (0.3, 0.8)
-"""Attenuation (dB/cm/MHz) a random preset's TGC undoes, drawn last. Soft tissue attenuates
-0.5-1 dB/cm/MHz and a sonographer sets the sliders by eye, so real exports mostly darken with
-depth: in usgra-seg the deepest fifth of the imaged area (vessels left out) has 0.38 times the
-grey of the second fifth (median; 0.08 / 0.85 at the 10th / 90th percentile). Compensating the
-deepest layer instead (the `femoral` iliopsoas, 1 dB/cm/MHz, under 2-3 cm of fat at 0.6-0.7)
+"""Attenuation (dB/cm/MHz) a random preset's TGC undoes, the same at every depth; drawn
+last. Soft tissue attenuates 0.5-1 dB/cm/MHz and a sonographer sets the sliders by eye, so
+real exports mostly darken with depth: in usgra-seg the deepest fifth of the imaged area
+(vessels left out) has 0.38 times the grey of the second fifth (median; 0.08 / 0.85 at the
+10th / 90th percentile). Compensating the deepest layer over the whole depth, as every preset
+did until 2026-12-04 (the `femoral` iliopsoas, 1 dB/cm/MHz, under 2-3 cm of fat at 0.6-0.7),
 over-compensated the fat: one pressed view of each of 24 `femoral` subjects under its random
 preset brightened with depth (ratio 1.12 / 1.67 / 2.45); with this range the same views give
 0.09 / 0.58 / 1.16 (`resus.experiments.realism` measures the ratio of any set)."""

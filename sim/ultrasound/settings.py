@@ -35,10 +35,11 @@ class UltrasoundSettings:
     elevation_samples: int = 4
     """Planes summed across the elevational slice (weighted by its Gaussian beam profile)."""
     tgc_attenuation: float | None = None
-    """Attenuation that time-gain compensation undoes (dB/cm/MHz): tissue that attenuates
-    exactly this much looks uniformly bright with depth; less attenuating media (blood)
-    brighten what lies below them (posterior enhancement). None: the phantom's deepest tissue
-    layer, as a sonographer would set the TGC sliders."""
+    """Attenuation that time-gain compensation undoes (dB/cm/MHz), the same at every depth:
+    tissue that attenuates exactly this much looks uniformly bright with depth; less
+    attenuating media (blood) brighten what lies below them (posterior enhancement). None:
+    the phantom's layers (`PhantomSpec.attenuation_below_skin`), each undone over its own
+    depths, as a sonographer sets the sliders for evenly bright tissue."""
     specular_gain: float = 120.0
     """Echo amplitude of a flat interface with reflection coefficient 1 at normal incidence,
     relative to the root-mean-square speckle amplitude of echogenicity-1 tissue."""

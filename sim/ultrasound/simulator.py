@@ -127,10 +127,11 @@ class UltrasoundSimulator:
         self._elevation_offsets = offsets
         self._elevation_weights = weights.astype(np.float32)
         depth_cm = (np.arange(probe.rows) + 0.5) * row_cm
-        tgc_attenuation = settings.tgc_attenuation
-        if tgc_attenuation is None:
-            tgc_attenuation = spec.layers[-1].attenuation_db_cm_mhz
-        tgc_db = 2.0 * tgc_attenuation * frequency_mhz * depth_cm
+        if settings.tgc_attenuation is None:
+            one_way = spec.attenuation_below_skin(depth_cm * METRES_PER_CM)
+        else:
+            one_way = settings.tgc_attenuation * depth_cm
+        tgc_db = 2.0 * frequency_mhz * one_way
         if settings.tgc_sliders_db:
             sliders = np.asarray(settings.tgc_sliders_db, dtype=np.float64)
             tgc_db = tgc_db + np.interp(

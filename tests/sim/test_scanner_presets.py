@@ -127,6 +127,44 @@ def test_tgc_undoes_the_attenuation_it_is_set_for(phantom, compensated_share: fl
     assert slope == pytest.approx(expected, abs=0.1 * abs(2.0 * gel_attenuation * 10 * 255 / 80))
 
 
+def test_the_layers_attenuation_below_the_skin_is_summed_layer_by_layer() -> None:
+    """Skin 1.5 mm at 1.0, fat 7 mm at 0.6, then iliopsoas at 1.0 dB/cm/MHz (the nominal
+    `femoral` stack's first layers, counted by hand)."""
+    spec = load_phantom("femoral")
+    depths = np.array([0.0, 0.001, 0.005, 0.0085])
+    expected = [0.0, 0.1, 0.15 + 0.35 * 0.6, 0.15 + 0.7 * 0.6]
+    np.testing.assert_allclose(spec.attenuation_below_skin(depths), expected, atol=1e-12)
+    total = sum(layer.thickness * layer.attenuation_db_cm_mhz for layer in spec.layers[:-1])
+    below = spec.attenuation_below_skin(np.array([0.06]))[0]
+    stack = sum(layer.thickness for layer in spec.layers[:-1])
+    assert below == pytest.approx(
+        100 * total + (0.06 - stack) * 100 * spec.layers[-1].attenuation_db_cm_mhz
+    )
+
+
+def test_the_default_tgc_keeps_layers_of_different_attenuation_evenly_bright(phantom) -> None:
+    """Two layers of one echogenicity, the deeper attenuating four times as much: the default
+    TGC undoes each over its own depths, so the grey stays level through both, where a TGC
+    set for the deep layer alone brightens the upper one with depth."""
+    gel = phantom.spec.layers[0]
+    upper = dataclasses.replace(gel, name="upper", attenuation_db_cm_mhz=0.25, thickness=0.012)
+    lower = dataclasses.replace(gel, name="lower", attenuation_db_cm_mhz=1.0)
+    layered = Phantom(dataclasses.replace(phantom.spec, layers=(upper, lower)))
+    preset = dataclasses.replace(PLAIN, gain_db=40.0, dynamic_range_db=80.0, depth=0.024)
+    depth_cm = (np.arange(SMALL_PROBE.rows) + 0.5) * preset.depth / SMALL_PROBE.rows * 100
+    slopes = {}
+    for name, tgc in (("layers", None), ("deep layer", 1.0)):
+        image = render(layered, dataclasses.replace(preset, tgc_attenuation=tgc))[0]
+        for rows in (slice(15, 90), slice(110, 185)):  # inside each layer, clear of the face
+            slope = np.polyfit(depth_cm[rows], image[rows].mean(axis=1), 1)[0]
+            slopes[name, rows.start] = slope
+    per_db_cm = 2 * preset.centre_frequency / 1e6 * 255.0 / 80.0  # grey per cm per dB/cm/MHz
+    for rows in (15, 110):
+        assert abs(slopes["layers", rows]) < 0.1 * per_db_cm * 0.75
+    assert slopes["deep layer", 15] == pytest.approx(0.75 * per_db_cm, rel=0.15)
+    assert abs(slopes["deep layer", 110]) < 0.1 * per_db_cm * 0.75
+
+
 def test_more_gain_is_brighter_by_the_grey_levels_per_db(phantom) -> None:
     dim = render(phantom, dataclasses.replace(PLAIN, gain_db=20.0))[0]
     bright = render(phantom, dataclasses.replace(PLAIN, gain_db=26.0))[0]
