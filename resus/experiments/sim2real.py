@@ -113,6 +113,9 @@ class Sim2RealSettings:
     """Probability that the `aug` regime warps an image and its labels elastically
     (`AugmentationConfig.elastic_p`): real veins are seldom ellipses (128 px, five seeds:
     0.319 +- 0.025 against 0.284 +- 0.062 without, README Sim-to-real)."""
+    vertical_flip_p: float = 0.5
+    """Probability that the `aug` regime turns an image upside down
+    (`AugmentationConfig.vertical_flip_p`)."""
     label_counts: tuple[int, ...] = (0, 5, 10, 25, 50, 100)
     """k: real labelled images a fine-tuning gets."""
     splits: int = 3
@@ -174,7 +177,7 @@ class Sim2RealSettings:
                     f"{where}.target_depth_fraction must be (low, high) with 0 < low <= high "
                     f"< 1, got {self.target_depth_fraction}"
                 )
-        for name in ("export_framing_p", "zoom_p", "elastic_p"):
+        for name in ("export_framing_p", "zoom_p", "elastic_p", "vertical_flip_p"):
             if not 0 <= getattr(self, name) <= 1:
                 raise ResusError(f"{where}.{name} must be in [0, 1], got {getattr(self, name)}")
         get_preset(self.training)  # an unknown preset fails here, before any work
@@ -185,13 +188,14 @@ class Sim2RealSettings:
         return Resources(self.training_cpus, self.training_gpus)
 
     def training_preset(self) -> TrainingPreset:
-        """The `training` preset with the experiment's export framing."""
+        """The `training` preset with the experiment's augmentation probabilities."""
         preset = get_preset(self.training)
         augmentation = dataclasses.replace(
             preset.augmentation,
             framing_p=self.export_framing_p,
             zoom_p=self.zoom_p,
             elastic_p=self.elastic_p,
+            vertical_flip_p=self.vertical_flip_p,
         )
         return dataclasses.replace(preset, augmentation=augmentation)
 

@@ -111,6 +111,7 @@ def test_too_few_real_images_is_one_error_naming_the_settings():
         ({"training": "huge"}, "unknown preset 'huge'"),
         ({"subjects": ()}, "subjects is empty"),
         ({"export_framing_p": 1.5}, r"export_framing_p must be in \[0, 1\], got 1.5"),
+        ({"vertical_flip_p": -0.1}, r"vertical_flip_p must be in \[0, 1\], got -0.1"),
         ({"sweep_tilt_deg": 50.0}, r"sweep_offset must be >= 0 and sweep_tilt_deg in \[0, 45\)"),
         ({"training_cpus": 0}, "training_cpus must be at least 1"),
         ({"ensemble": 0}, "ensemble must be at least 1"),
@@ -122,6 +123,15 @@ def test_settings_refuse_what_cannot_run(changes, message):
     base = {"name": "x", "subjects": (0,), "training": "quick"}
     with pytest.raises(ResusError, match=message):
         Sim2RealSettings(**{**base, **changes})
+
+
+def test_the_augmentation_probabilities_reach_the_training_preset():
+    settings = Sim2RealSettings(
+        name="x", subjects=(0,), training="quick", zoom_p=0.2, elastic_p=0.3, vertical_flip_p=0.0
+    )
+    augmentation = settings.training_preset().augmentation
+    assert (augmentation.zoom_p, augmentation.elastic_p) == (0.2, 0.3)
+    assert (augmentation.framing_p, augmentation.vertical_flip_p) == (0.5, 0.0)
 
 
 def test_presets_and_unknown_preset():
