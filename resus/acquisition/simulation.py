@@ -18,6 +18,7 @@ from resus.acquisition.scanner import Scanner, ScannerSettings, ScanResult
 from resus.acquisition.trajectory import Trajectory
 from resus.errors import ResusError, simulator_errors
 from resus.sweep.model import FrameSink
+from sim.fingerprint import simulator_fingerprint
 from sim.phantom import Phantom, PhantomSpec
 from sim.robot.scene import load_scene_phantom
 from sim.robot.scene_config import SceneConfig, load_scene_config, scene_path
@@ -86,6 +87,7 @@ def simulate_sweep(
         "pattern": trajectory.pattern,
         "contact_force": trajectory.contact_force,
         "deformation": spec.mechanics is not None and not probe_config.rigid,
+        "simulator": simulator_fingerprint(),
     }
     return scanner.run(
         trajectory, out, source="sim", subject=subject_id(scene), provenance=provenance

@@ -5,8 +5,9 @@ label volume (`volume.nrrd`, `labels.nrrd`) and the reslices of that volume (`re
 all in one folder. Scans are independent units, prepared by an executor (`resus.execution`):
 worker processes of this machine, one per core by default, or a Ray cluster.
 
-Every stage is cached: a folder's `scan.json` records the settings each stage ran with, and a
-stage whose files exist and whose recorded settings equal the requested ones is skipped. The
+Every stage is cached: a folder's `scan.json` records the settings each stage ran with (for
+the simulation, the simulator's fingerprint too: `sim.fingerprint`), and a stage whose files
+exist and whose recorded settings equal the requested ones is skipped. The
 record is written only after a stage finishes, so a crashed or interrupted stage runs again.
 """
 
@@ -23,6 +24,7 @@ from resus.errors import ResusError, check_choice, simulator_errors
 from resus.execution import Executor, limit_numba_threads, make_executor, read_json, write_json
 from resus.reconstruction.compounding import ReconstructionSettings
 from resus.reslicing.reslice import ResliceSettings
+from sim.fingerprint import simulator_fingerprint
 from sim.labels import LABEL_NAMES
 from sim.phantom.loader import load_phantom
 from sim.ultrasound.scanner import scanner_preset
@@ -178,7 +180,8 @@ def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:
         "simulate": {"scene": settings.scene, "phantom": settings.phantom,
                      "scanner": settings.scanner, "subject": scan.subject,
                      "sweep": dataclasses.asdict(scan.sweep or settings.sweep),
-                     "cols": settings.cols, "rows": settings.rows},
+                     "cols": settings.cols, "rows": settings.rows,
+                     "simulator": simulator_fingerprint()},
         "reconstruct": {"grid": settings.grid, "spacing": settings.spacing,
                         "settings": dataclasses.asdict(settings.reconstruction)},
         "reslice": dataclasses.asdict(settings.reslice),

@@ -51,6 +51,7 @@ from resus.segmentation.evaluate import Evaluation, score_labels
 from resus.segmentation.folders import FolderImages
 from resus.segmentation.presets import TrainingPreset, get_preset, pick_preset
 from resus.segmentation.trained_model import Segmenter, TrainedModel
+from sim.fingerprint import simulator_fingerprint
 
 if TYPE_CHECKING:
     from sim.phantom import PhantomSpec
@@ -459,7 +460,8 @@ def few_label_curve(
 def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dict:
     """What a sweep of the experiment must have been made from to be reused: the phantom,
     subject, seed, scanner, the subject's sweep pattern and force (where and how it was
-    scanned), and whether its tissue deformed."""
+    scanned), whether its tissue deformed, and the simulator that made it (its fingerprint:
+    a preset's name stays when its knobs change)."""
     return _subject_scan(settings, subject, seed)[0]
 
 
@@ -483,6 +485,7 @@ def _subject_scan(
         "pattern": json.loads(json.dumps(path.pattern)),
         "contact_force": path.contact_force,
         "deformation": spec.mechanics is not None,
+        "simulator": simulator_fingerprint(),
     }
     return provenance, preset
 
@@ -496,7 +499,8 @@ def simulate_subjects(
     progress: bool = True,
 ) -> list[Path]:
     """One sweep per subject in `folder/subject_KK.h5`, each a unit on `executor`; a sweep
-    already there from the same phantom, subject, seed and scanner is kept."""
+    already there from the same phantom, subject, seed, scanner and simulator
+    (`sweep_provenance`) is kept."""
     from resus.sweep.io import SweepReader
 
     folder.mkdir(parents=True, exist_ok=True)

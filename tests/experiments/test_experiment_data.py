@@ -1,6 +1,7 @@
 """Experiment data preparation: one scan's sweep, volumes and reslices, and its stage cache."""
 
 import dataclasses
+import json
 
 import h5py
 import pytest
@@ -9,6 +10,7 @@ from resus.acquisition.patterns import LinearPattern
 from resus.experiments.data import ScanSettings, prepare_subjects
 from resus.reslicing.reslice import ResliceSettings
 from resus.sweep.io import SweepReader
+from sim.fingerprint import simulator_fingerprint
 
 pytestmark = pytest.mark.slow  # the demo and experiments run whole pipelines
 
@@ -57,3 +59,17 @@ def test_interrupted_stage_runs_again(tmp_path):
     after = modified(again)
     assert after["sweep"] == before["sweep"]
     assert after["volume"] != before["volume"] and after["reslices"] != before["reslices"]
+
+
+def test_a_scan_another_simulator_made_is_made_again(tmp_path):
+    (first,) = prepare_subjects(tmp_path, [1], SETTINGS, jobs=1, progress=False)
+    before = modified(first)
+    record_path = first.sweep.parent / "scan.json"
+    record = json.loads(record_path.read_text())
+    assert record["simulate"]["simulator"] == simulator_fingerprint()
+    record["simulate"]["simulator"] = "0" * 16  # as if an older simulator had made the sweep
+    record_path.write_text(json.dumps(record))
+    (again,) = prepare_subjects(tmp_path, [1], SETTINGS, jobs=1, progress=False)
+    after = modified(again)
+    assert all(after[name] != before[name] for name in after)  # every stage after it too
+    assert json.loads(record_path.read_text())["simulate"]["simulator"] == simulator_fingerprint()

@@ -10,6 +10,7 @@ import math
 import shutil
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 from cli_runner import run_main
@@ -40,6 +41,7 @@ from resus.segmentation.data import LabelledImages
 from resus.segmentation.folders import read_folders
 from resus.segmentation.trained_model import load_model
 from resus.sweep.io import SweepReader
+from sim.fingerprint import simulator_fingerprint
 from sim.phantom import VesselSpec, load_phantom
 from sim.ultrasound.scanner import RANDOM_RANGES, sweep_preset
 
@@ -229,6 +231,15 @@ def test_a_small_run_end_to_end(tmp_path):
         Path(p) for p in results["sweeps"]
     ]
     assert [Path(p).stat().st_mtime_ns for p in results["sweeps"]] == stamps
+    # ... and makes again one that another simulator made (its fingerprint differs)
+    with h5py.File(results["sweeps"][1], "r+") as sweep:
+        provenance = json.loads(sweep.attrs["provenance"])
+        sweep.attrs["provenance"] = json.dumps({**provenance, "simulator": "0" * 16})
+    simulate_subjects(out / "data" / "sweeps", TINY, 3, in_process, progress=False)
+    assert Path(results["sweeps"][0]).stat().st_mtime_ns == stamps[0]
+    assert Path(results["sweeps"][1]).stat().st_mtime_ns != stamps[1]
+    with SweepReader(results["sweeps"][1]) as remade:
+        assert remade.provenance == provenance
 
     # the fine-tunings in two worker processes give the same curve, to the last bit; the
     # simulation-only unit, finished (copied from the first run), is not trained again
@@ -348,7 +359,7 @@ def test_each_subject_is_scanned_its_own_way_within_the_settings_bounds():
     assert subject_sweep(TINY, 5, 3) == sweeps[5] and subject_sweep(TINY, 5, 4) != sweeps[5]
 
 
-def test_a_sweep_is_reused_only_from_the_same_phantom_subject_seed_and_scanner():
+def test_a_sweep_is_reused_only_from_the_same_phantom_subject_seed_scanner_and_simulator():
     made = sweep_provenance(TINY, 1, 3)
     assert made["phantom"] == "femoral" and made["subject"] == 1
     assert made["scanner"].startswith("random-")
@@ -357,6 +368,7 @@ def test_a_sweep_is_reused_only_from_the_same_phantom_subject_seed_and_scanner()
     assert made["pattern"]["tilt_deg"] == subject_sweep(TINY, 1, 3).tilt_deg  # where it scanned
     assert made["contact_force"] == subject_sweep(TINY, 1, 3).contact_force  # how hard
     assert made["deformation"] is True
+    assert made["simulator"] == simulator_fingerprint()  # made by this simulator
     moved = dataclasses.replace(TINY, sweep_offset=0.0)
     assert sweep_provenance(moved, 1, 3)["pattern"] != made["pattern"]
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
+from sim.fingerprint import simulator_fingerprint
 from sim.phantom import (
     Phantom,
     PhantomSpec,
@@ -294,6 +295,7 @@ def test_a_pressing_sweep_flattens_the_vein_and_rigid_turns_it_off(tmp_path, mon
         sweeps[name] = read_sweep(out)
     deformed, rigid = sweeps["deformed"], sweeps["rigid"]
     assert deformed.provenance["deformation"] is True
+    assert deformed.provenance["simulator"] == simulator_fingerprint()  # what made the sweep
     assert rigid.provenance["deformation"] is False
     # the force that deformed them
     assert np.median(deformed.axial_force) == pytest.approx(9.0, abs=0.5)

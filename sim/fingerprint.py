@@ -1,0 +1,45 @@
+"""The simulator's fingerprint: a hash of its source and assets, recorded with every sweep it makes.
+
+Caches of simulated data (the sim-to-real experiment's sweeps, the experiments' scans) decide
+whether a sweep on disk can be reused by what it was made from: phantom, subject, seed, the
+scanner preset's name, the sweep pattern. None of those changes when a preset's knobs or the
+renderer do, so a cache keyed on them alone hands back sweeps an older simulator made (on
+2026-12-04 a change to the random presets' TGC left every cached sweep of the old TGC in
+place). Keyed on this fingerprint as well, a cached sweep is reused only if the same simulator
+would make it again. The hash errs the other way: a changed comment re-simulates, which costs
+minutes, never a wrong figure.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from functools import cache
+from pathlib import Path
+
+from sim.assets import assets_dir
+
+SOURCE_SUFFIXES = (".py", ".xml", ".yaml", ".stl", ".obj")
+"""What is hashed: the simulator's Python source and every model, mesh and spec it reads."""
+
+
+@cache
+def simulator_fingerprint() -> str:
+    """The fingerprint (`tree_fingerprint`) of the `sim` package and the assets."""
+    return tree_fingerprint((Path(__file__).parent, assets_dir()))
+
+
+def tree_fingerprint(roots: tuple[Path, ...]) -> str:
+    """The first 16 hex digits of a SHA-256 over the source files under `roots`, each by its
+    path relative to its root and its bytes, in sorted order: the same files give the same
+    fingerprint wherever they are installed."""
+    digest = hashlib.sha256()
+    for root in roots:
+        files = sorted(
+            path
+            for path in root.rglob("*")
+            if path.suffix in SOURCE_SUFFIXES and "__pycache__" not in path.parts
+        )
+        for path in files:
+            digest.update(path.relative_to(root).as_posix().encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
