@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import rtde_receive
 
+from resus.acquisition.backends.rtde_link import read_packet
 from resus.acquisition.patterns import linear_sweep
 from resus.acquisition.simulation import phantom_spec, resolve_scene
 from sim.phantom import Phantom
@@ -28,8 +29,6 @@ FRAME_RATE = 10.0
 """Frames per second of the test plans."""
 WATCH_PERIOD = 0.002
 """How often the watcher reads the controller (s): one control period."""
-PACKET_TRIES = 5
-"""Reads of one RTDE state packet before taking a mixed one (see `read_packet`)."""
 
 
 def default_scene_and_phantom():
@@ -69,17 +68,10 @@ class Watched:
     """(N,) actual TCP linear speeds (m/s)."""
 
 
-def read_packet(receive: rtde_receive.RTDEReceiveInterface) -> tuple[float, np.ndarray, np.ndarray]:
-    """Timestamp, actual TCP pose (UR vector) and TCP speed of one RTDE state packet.
-
-    ur_rtde's receive thread may replace its packet between two getter calls, and a pose
-    paired with the next packet's timestamp is a control period of motion off: the
-    timestamp is read again after the values, and all of them again when it changed."""
-    for _ in range(PACKET_TRIES):
-        stamp = receive.getTimestamp()
-        pose, speed = receive.getActualTCPPose(), receive.getActualTCPSpeed()
-        if receive.getTimestamp() == stamp:
-            break
+def read_state(receive: rtde_receive.RTDEReceiveInterface) -> tuple[float, np.ndarray, np.ndarray]:
+    """Timestamp, actual TCP pose (UR vector) and TCP speed, all of one RTDE state packet
+    (read as the scanner reads its packets: `read_packet`)."""
+    stamp, (pose, speed) = read_packet(receive, "getActualTCPPose", "getActualTCPSpeed")
     return stamp, np.array(pose), np.array(speed)
 
 
@@ -103,7 +95,7 @@ def scan_and_watch(host: str, tmp_path: Path, *args: str) -> Watched:
                     raise AssertionError("resus scan hung")
                 with contextlib.suppress(RuntimeError):
                     if receive.isConnected():
-                        stamp, pose, speed = read_packet(receive)
+                        stamp, pose, speed = read_state(receive)
                         if not times or stamp > times[-1]:
                             times.append(stamp)
                             poses.append(pose)

@@ -46,9 +46,9 @@ CLOSE_TIMEOUT = 5.0
 POLL_INTERVAL = 0.05
 """Seconds between checks that the child still lives while a request is answered (a moveL
 blocks for as long as the move lasts)."""
-READING_TRIES = 5
-"""Reads of one state packet before taking a mixed one (a new packet arrives every 2 ms and
-a read takes microseconds, so a second try is rare and a fifth one never needed)."""
+PACKET_READ_TIMEOUT = 0.5
+"""Seconds `read_packet` may re-read before it gives up: far more than a backlog of queued
+packets takes to replay, far less than a scan's watchdog."""
 LINK_LOST = "connection to the UR controller lost"
 RUNTIME_PLAYING = 2
 """`runtime_state` of a running program."""
@@ -277,6 +277,30 @@ def _serve(connection: Connection, host: str, frequency: float) -> None:
             connection.send((number, "error", str(error) or type(error).__name__))
 
 
+def read_packet(receive: Any, *getters: str) -> tuple[float, list[Any]]:
+    """The timestamp and the values of ur_rtde's `getters` (method names of an
+    `RTDEReceiveInterface`), all from one state packet.
+
+    ur_rtde's receive thread replaces its packet between any two getter calls, and after a
+    stall (a loaded machine) it replays the packets queued meanwhile one after another, so
+    several reads in a row can each straddle a replacement: stopping after a fixed number of
+    tries and taking the last read could pair one packet's timestamp with a pose a backlog
+    later, tens of milliseconds of motion. So the timestamp is
+    read before and after the values, and everything read again until the two agree (the
+    controller's timestamps strictly increase); a mixed read is never returned. RuntimeError
+    after `PACKET_READ_TIMEOUT` of reads that never agreed."""
+    deadline = time.monotonic() + PACKET_READ_TIMEOUT
+    while True:
+        stamp = receive.getTimestamp()
+        values = [getattr(receive, getter)() for getter in getters]
+        if receive.getTimestamp() == stamp:
+            return stamp, values
+        if time.monotonic() > deadline:
+            raise RuntimeError(
+                f"every state packet read for {PACKET_READ_TIMEOUT} s mixed two packets"
+            )
+
+
 class _Session:
     """ur_rtde's two interfaces and what the child keeps between requests."""
 
@@ -303,14 +327,9 @@ class _Session:
         arrived between two getter calls); None once the link is down."""
         if not self.check_link():
             return None
-        receive = self.receive
-        for _ in range(READING_TRIES):
-            stamp = receive.getTimestamp()
-            pose = receive.getActualTCPPose()
-            wrench = receive.getActualTCPForce()
-            joints = receive.getActualQ()
-            if receive.getTimestamp() == stamp:
-                break
+        stamp, (pose, wrench, joints) = read_packet(
+            self.receive, "getActualTCPPose", "getActualTCPForce", "getActualQ"
+        )
         return stamp, pose, wrench, joints
 
     def state(self) -> tuple[bool, bool, int, bool, bool]:
