@@ -208,8 +208,10 @@ def _simulate_many(
 
 def _sweep_record(job: dict, path: Path) -> UnitRecord:
     """The record of one sweep of `--subjects`: everything the sweep depends on (a file's
-    text with its path: a plan edited in place makes a new sweep)."""
+    text with its path: a plan edited in place makes a new sweep), the simulator included
+    (`sim.fingerprint`)."""
     from resus.execution import UnitRecord
+    from sim.fingerprint import simulator_fingerprint
 
     def value(setting: object) -> object:
         if dataclasses.is_dataclass(setting) and not isinstance(setting, type):
@@ -219,7 +221,8 @@ def _sweep_record(job: dict, path: Path) -> UnitRecord:
         return setting
 
     names = ("scene", "phantom", "trajectory", "subject", "seed", "scanner", "rigid")
-    return UnitRecord(path, {name: value(job[name]) for name in names}, (job["out"],))
+    key = {name: value(job[name]) for name in names} | {"simulator": simulator_fingerprint()}
+    return UnitRecord(path, key, (job["out"],))
 
 
 def register(app: typer.Typer) -> None:

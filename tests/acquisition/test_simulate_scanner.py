@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 from cli_runner import run_main
 
 from resus.sweep.io import read_sweep
+from sim.fingerprint import simulator_fingerprint
 from sim.ultrasound.scanner import PRESETS
 
 SHORT = ("--length", "0.006", "--speed", "0.02", "--frame-rate", "10", "--force", "0")
@@ -42,3 +45,11 @@ def test_random_scanner_draws_one_preset_per_subject(monkeypatch, capsys, tmp_pa
     assert not np.isclose(
         np.linalg.norm(first.image_to_probe[:3, 1]), np.linalg.norm(second.image_to_probe[:3, 1])
     )
+    # a rerun keeps both, unless another simulator made one (its record's fingerprint differs)
+    record_path = out / ".done" / "subject_01.json"
+    record = json.loads(record_path.read_text())
+    assert record["key"]["simulator"] == simulator_fingerprint()
+    record_path.write_text(json.dumps({**record, "key": {**record["key"], "simulator": "0" * 16}}))
+    status, printed, _ = run_main(monkeypatch, capsys, *args, "--scanner", "random", *SHORT)
+    assert status == 0 and printed.count("kept ") == 1 and printed.count("wrote ") == 1
+    assert f"kept {out / 'subject_00.h5'}" in printed
