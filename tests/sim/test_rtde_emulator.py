@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import rtde_control
 import rtde_receive
-from scan_session import read_packet
+from scan_session import read_state
 
 from sim.robot.kinematics import forward_kinematics
 from sim.rtde.faults import FaultPlan
@@ -75,7 +75,7 @@ def _first_packet_at(receive, position: np.ndarray, timeout: float = 2.0) -> flo
     may be a packet or two behind it on a loaded machine."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
-        stamp, pose, _ = read_packet(receive)
+        stamp, pose, _ = read_state(receive)
         if np.allclose(pose[:3], position, atol=1e-6):
             return stamp
         time.sleep(0.001)
@@ -85,7 +85,7 @@ def _first_packet_at(receive, position: np.ndarray, timeout: float = 2.0) -> flo
 def test_movel_reaches_its_target_in_the_profile_time(clients):
     """Timed on the robot clock: a loaded machine runs the emulator behind the wall clock."""
     control, receive = clients
-    began, start, _ = read_packet(receive)
+    began, start, _ = read_state(receive)
     goal = start + np.array([0.03, -0.02, -0.04, 0.0, 0.0, 0.0])
     assert control.moveL(goal.tolist(), 0.1, 0.5)
     elapsed = _first_packet_at(receive, goal[:3]) - began
@@ -111,7 +111,7 @@ def test_servol_approaches_its_target_through_the_lookahead_filter(clients):
     (lookahead / 2 + period) after k cycles. Checked on the robot clock, packet by packet, so
     it holds however late this loop or the emulator runs."""
     control, receive = clients
-    began, start, _ = read_packet(receive)
+    began, start, _ = read_state(receive)
     step, lookahead, period = 0.01, 0.05, 0.002
     target = start.copy()
     target[0] += step
@@ -119,7 +119,7 @@ def test_servol_approaches_its_target_through_the_lookahead_filter(clients):
     while not samples or samples[-1][0] < began + 0.4:
         cycle = control.initPeriod()
         assert control.servoL(target.tolist(), 0.5, 0.5, period, lookahead, 300)
-        stamp, pose, _ = read_packet(receive)
+        stamp, pose, _ = read_state(receive)
         samples.append((stamp, pose[0] - start[0]))
         control.waitPeriod(cycle)
     control.servoStop(2.0)
