@@ -1,13 +1,12 @@
 """The simulator's fingerprint: a hash of its source and assets, recorded with every sweep it makes.
 
-Caches of simulated data (the sim-to-real experiment's sweeps, the experiments' scans) decide
-whether a sweep on disk can be reused by what it was made from: phantom, subject, seed, the
-scanner preset's name, the sweep pattern. None of those changes when a preset's knobs or the
-renderer do, so a cache keyed on them alone hands back sweeps an older simulator made (on
-2026-12-04 a change to the random presets' TGC left every cached sweep of the old TGC in
-place). Keyed on this fingerprint as well, a cached sweep is reused only if the same simulator
-would make it again. The hash errs the other way: a changed comment re-simulates, which costs
-minutes, never a wrong figure.
+Caches of simulated data (the sim-to-real experiment's sweeps, the experiments' scans,
+`resus simulate --subjects`) decide whether a sweep on disk can be reused by what it was made
+from: phantom, subject, seed, the scanner preset's name, the sweep pattern. None of those
+changes when a preset's knobs or the renderer do, so a cache keyed on them alone would hand
+back sweeps an older simulator made. Keyed on this fingerprint as well, a cached sweep is
+reused only if the same simulator would make it again. The hash errs the other way: a changed
+comment re-simulates, which costs minutes, never a wrong figure.
 """
 
 from __future__ import annotations

@@ -285,10 +285,10 @@ def read_packet(receive: Any, *getters: str) -> tuple[float, list[Any]]:
     stall (a loaded machine) it replays the packets queued meanwhile one after another, so
     several reads in a row can each straddle a replacement: stopping after a fixed number of
     tries and taking the last read could pair one packet's timestamp with a pose a backlog
-    later, tens of milliseconds of motion. So the timestamp is
-    read before and after the values, and everything read again until the two agree (the
-    controller's timestamps strictly increase); a mixed read is never returned. RuntimeError
-    after `PACKET_READ_TIMEOUT` of reads that never agreed."""
+    later, tens of milliseconds of motion. So the timestamp is read before and after the
+    values, and everything read again until the two agree (the controller's timestamps
+    strictly increase); a mixed read is never returned. RuntimeError after
+    `PACKET_READ_TIMEOUT` of reads that never agreed."""
     deadline = time.monotonic() + PACKET_READ_TIMEOUT
     while True:
         stamp = receive.getTimestamp()
