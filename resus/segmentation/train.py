@@ -163,6 +163,7 @@ def train_model(
     )
     loss_function = SegmentationLoss(preset.cross_entropy).to(device)
     optimiser = torch.optim.Adam(model.parameters(), lr=preset.learning_rate)
+    schedule = learning_rate_schedule(optimiser, preset, len(loader))
     config = {
         "model": preset.model.to_dict(),
         "preset": preset.to_dict(),
@@ -180,7 +181,7 @@ def train_model(
     with TrainingProgress(preset.max_epochs, len(loader), progress) as bar:
         for epoch in range(1, preset.max_epochs + 1):
             train_loss, seconds = train_one_epoch(
-                model, loader, loss_function, optimiser, device, bar.batch_done
+                model, loader, loss_function, optimiser, device, bar.batch_done, schedule
             )
             validation_loss, validation_iou = evaluate(
                 model, validation_data, loss_function, preset.evaluation_batch_size
@@ -209,6 +210,19 @@ def train_model(
     model.load_state_dict(best_state)
     stopped_early = len(history) < preset.max_epochs
     return TrainingResult(model.eval(), config, history, best_epoch, stopped_early)
+
+
+def learning_rate_schedule(
+    optimiser: torch.optim.Optimizer, preset: TrainingPreset, steps_per_epoch: int
+) -> torch.optim.lr_scheduler.LRScheduler | None:
+    """The preset's per-step learning-rate schedule for `optimiser`, or None for a constant
+    rate: with `cosine_decay`, a half cosine from the preset's rate to zero at the last step
+    of `max_epochs` epochs of `steps_per_epoch` batches."""
+    if not preset.cosine_decay:
+        return None
+    return torch.optim.lr_scheduler.CosineAnnealingLR(
+        optimiser, T_max=preset.max_epochs * steps_per_epoch
+    )
 
 
 class TrainingProgress:
@@ -262,9 +276,10 @@ def train_one_epoch(
     optimiser: torch.optim.Optimizer,
     device: torch.device,
     on_batch: Callable[[], None] | None = None,
+    schedule: torch.optim.lr_scheduler.LRScheduler | None = None,
 ) -> tuple[float, float]:
     """One pass over `loader`: (mean loss per image, seconds taken); `on_batch()` after each
-    batch (a progress bar)."""
+    batch (a progress bar); `schedule` (if any) steps the learning rate after each batch."""
     model.train()
     total, count = 0.0, 0
     start = time.perf_counter()
@@ -274,6 +289,8 @@ def train_one_epoch(
         loss = loss_function(model(images), labels)
         loss.backward()
         optimiser.step()
+        if schedule is not None:
+            schedule.step()
         total += loss.item() * len(images)
         count += len(images)
         if on_batch is not None:

@@ -5,13 +5,19 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import torch
+from torch.utils.data import DataLoader
 
 from resus.segmentation.data import SegmentationDataset
 from resus.segmentation.losses import SegmentationLoss
 from resus.segmentation.model import build_model
 from resus.segmentation.presets import QUICK
 from resus.segmentation.synthetic import synthetic_subject
-from resus.segmentation.train import seed_everything, train_model
+from resus.segmentation.train import (
+    learning_rate_schedule,
+    seed_everything,
+    train_model,
+    train_one_epoch,
+)
 
 torch.set_num_threads(1)  # one per pytest-xdist worker: more oversubscribes the 2 cores
 
@@ -82,3 +88,25 @@ def test_early_stopping_keeps_the_best_epoch() -> None:
     assert result.best_epoch == 1 and len(result.history) == 3 and result.stopped_early
     assert result.config["best_epoch"] == 1
     assert result.summary().best_validation_loss == pytest.approx(result.history[0].validation_loss)
+
+
+@pytest.mark.parametrize("cosine_decay", [False, True])
+def test_cosine_decay_lowers_the_rate_every_step_to_zero_at_the_last_epoch(
+    cosine_decay: bool,
+) -> None:
+    preset = replace(QUICK, cosine_decay=cosine_decay, max_epochs=3)
+    dataset = SegmentationDataset([synthetic_subject("s", 16, size=64, seed=1)], 64)
+    loader = DataLoader(dataset, batch_size=5)  # 4 batches, the last one short
+    model = build_model(preset.model)
+    optimiser = torch.optim.Adam(model.parameters(), lr=preset.learning_rate)
+    schedule = learning_rate_schedule(optimiser, preset, len(loader))
+    rates = []
+    for _ in range(preset.max_epochs):
+        train_one_epoch(
+            model, loader, SegmentationLoss(), optimiser, torch.device("cpu"), schedule=schedule
+        )
+        rates.append(optimiser.param_groups[0]["lr"])
+    epochs = np.arange(1, preset.max_epochs + 1)
+    # after epoch e of E: rate * (1 + cos(pi e / E)) / 2; constant without the decay
+    expected = (1 + np.cos(np.pi * epochs / preset.max_epochs)) / 2 if cosine_decay else 1.0
+    np.testing.assert_allclose(rates, preset.learning_rate * expected, atol=1e-12)
