@@ -39,6 +39,12 @@ def clients(emulator):
 def test_handshake_all_default_recipes_and_program_running(clients, emulator):
     control, receive = clients
     assert receive.isConnected() and control.isConnected()
+    # The receive stream connected before the control script was sent, so it shows the script
+    # playing from the next packet its thread takes in; on a loaded host that thread can lag
+    # the control interface's answer by more than a cycle: wait for it (up to 2 s).
+    deadline = time.monotonic() + 2.0
+    while receive.getRuntimeState() != 2 and time.monotonic() < deadline:
+        time.sleep(0.01)
     assert control.isProgramRunning() and receive.getRuntimeState() == 2
     assert receive.getRobotMode() == 7 and receive.getSafetyMode() == 1
     assert not receive.isProtectiveStopped() and not receive.isEmergencyStopped()
