@@ -18,7 +18,7 @@ import numpy as np
 import rtde_receive
 
 from resus.acquisition.backends.rtde_link import read_packet
-from resus.acquisition.patterns import LinearPattern, linear_sweep
+from resus.acquisition.patterns import linear_sweep
 from resus.acquisition.simulation import phantom_spec, resolve_scene
 from sim.phantom import Phantom
 from sim.transforms import pose_from_ur
@@ -37,20 +37,15 @@ def default_scene_and_phantom():
 
 
 def write_linear_plan(
-    path: Path,
-    start: tuple[float, float],
-    direction: tuple[float, float],
-    length: float,
-    speed: float = LinearPattern.speed,
+    path: Path, start: tuple[float, float], direction: tuple[float, float], length: float
 ) -> Path:
-    """A linear sweep over the default phantom (phantom frame `start`, `direction`, `speed`
-    in m/s), starting near the emulator's home TCP above the phantom's centre. 10 frames/s: a
-    synthetic frame costs about 45 ms of CPU, and the tests share two cores with real-time
-    processes."""
+    """A linear sweep over the default phantom (phantom frame `start`, `direction`), starting
+    near the emulator's home TCP above the phantom's centre. 10 frames/s: a synthetic frame
+    costs about 45 ms of CPU, and the tests share two cores with real-time processes."""
     scene, phantom = default_scene_and_phantom()
     plan = linear_sweep(
         phantom, scene.phantom_to_base, start=start, direction=direction, length=length,
-        speed=speed, frame_rate=FRAME_RATE,
+        frame_rate=FRAME_RATE,
     )  # fmt: skip
     plan.to_yaml(path)
     return path
