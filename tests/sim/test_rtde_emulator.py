@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import dashboard_client
 import numpy as np
@@ -36,15 +37,21 @@ def clients(emulator):
         receive.disconnect()
 
 
+def _wait_until(condition: Callable[[], bool], timeout: float = 2.0) -> None:
+    """Poll `condition` until it holds or `timeout` s pass: the next RTDE packet may be late on a
+    busy machine. The caller's own assert then says what was wrong if it never held."""
+    deadline = time.monotonic() + timeout
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.005)
+
+
 def test_handshake_all_default_recipes_and_program_running(clients, emulator):
     control, receive = clients
     assert receive.isConnected() and control.isConnected()
     # The receive stream connected before the control script was sent, so it shows the script
     # playing from the next packet its thread takes in; on a loaded host that thread can lag
-    # the control interface's answer by more than a cycle: wait for it (up to 2 s).
-    deadline = time.monotonic() + 2.0
-    while receive.getRuntimeState() != 2 and time.monotonic() < deadline:
-        time.sleep(0.01)
+    # the control interface's answer by more than a cycle.
+    _wait_until(lambda: receive.getRuntimeState() == 2)
     assert control.isProgramRunning() and receive.getRuntimeState() == 2
     assert receive.getRobotMode() == 7 and receive.getSafetyMode() == 1
     assert not receive.isProtectiveStopped() and not receive.isEmergencyStopped()
@@ -148,11 +155,10 @@ def test_tcp_offset_moves_the_reported_tcp(clients):
     assert control.setTcp([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])
     assert control.getTCPOffset() == [0.0, 0.0, 0.1, 0.0, 0.0, 0.0]
     expected = flange[:3, 3] + 0.1 * flange[:3, 2]
-    deadline = time.monotonic() + 2.0  # the next RTDE packet may be late on a busy machine
+    _wait_until(
+        lambda: np.allclose(pose_from_ur(receive.getActualTCPPose())[:3, 3], expected, atol=1e-9)
+    )
     tcp = pose_from_ur(receive.getActualTCPPose())
-    while not np.allclose(tcp[:3, 3], expected, atol=1e-9) and time.monotonic() < deadline:
-        time.sleep(0.005)
-        tcp = pose_from_ur(receive.getActualTCPPose())
     np.testing.assert_allclose(tcp[:3, 3], expected, atol=1e-9)
     assert control.setTcp([0.0] * 6)
 
@@ -168,9 +174,7 @@ def test_unimplemented_command_is_reported_and_stops_the_program(clients, emulat
     assert not control.isProgramRunning()
     assert "command id 18 (TEACH_MODE) is not implemented" in emulator.log()
     assert control.reuploadScript()
-    deadline = time.monotonic() + 2.0
-    while not control.isProgramRunning() and time.monotonic() < deadline:
-        time.sleep(0.01)
+    _wait_until(control.isProgramRunning)
     assert control.isProgramRunning()
 
 
