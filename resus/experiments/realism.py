@@ -28,6 +28,15 @@ Depth. The imaged area's rows are cut into `DEPTH_BANDS` equal bands from the fa
 the tissue's mean grey in each is the depth profile: real exports mostly darken with depth
 (attenuation that the TGC does not wholly undo), and a simulator whose images brighten with
 depth teaches a network that vessels are dark holes in a bright floor.
+
+Vessel shapes. Each connected vessel region (8-connected) of at least
+`RealismSettings.min_vessel_area` of its image's imaged area is one vessel cross-section. Its
+aspect is sqrt(l1 / l2) of its second moments' eigenvalues, each pixel a unit square (so a
+uniform ellipse of semi-axes a >= b gives a / b, and a one-pixel line stays finite); its area
+and its centre's depth are shares of the imaged area and height, so that 256 px frames and
+512 px exports compare alike. A vein pressed flat shows as a region over `ELONGATED_ASPECT`
+times longer than wide: common in simulation at a heavy probe force, rare in real scans made
+with the light touch of a vascular examination.
 """
 
 from __future__ import annotations
@@ -67,7 +76,8 @@ tissue's echogenicity, the gain, the TGC) is.
 DEPTH_BANDS = 5
 """Equal bands of the imaged area's depth in the depth profile (fifths)."""
 QUANTILES = (0.1, 0.25, 0.5, 0.75, 0.9)
-"""Which quantiles of the per-window grey SNR are reported."""
+"""Which quantiles of the per-window grey SNR and of the vessel shapes are reported."""
+MEDIAN, NINETIETH = QUANTILES.index(0.5), QUANTILES.index(0.9)
 REALISM_JSON = "realism.json"
 REALISM_MD = "realism.md"
 SIM_VS_REAL_PNG = "sim_vs_real.png"
@@ -75,6 +85,11 @@ HISTOGRAMS_PNG = "histograms.png"
 OUTLINE_COLOUR = "yellow"
 """Vessel outline in the figures (the real masks do not tell artery from vein)."""
 SET_COLOURS = {"simulated": "tab:orange", "real": "tab:blue"}
+ELONGATED_ASPECT = 3.0
+"""A vessel region longer than this many times its width counts as flattened."""
+PIXEL_SECOND_MOMENT = 1.0 / 12.0
+"""Second moment of a unit square about its centre along either axis: what each pixel adds to
+a region's covariance when the region is the union of its pixels' squares."""
 
 
 def rayleigh_grey_std(dynamic_range_db: float) -> float:
@@ -103,6 +118,10 @@ class RealismSettings:
     """A window is homogeneous when its four quadrants' means span at most this many of its
     grey std: fine fully developed speckle spans a quarter to a half of it, an edge or a
     fascia across the window far more."""
+    min_vessel_area: float = 0.0005
+    """Smallest vessel region in the shape figures, as a share of its image's imaged area:
+    0.05 % is a lumen 1.3 mm across in a 5 cm square image, smaller than any femoral vessel
+    or great saphenous vein, larger than a label's stray corner at the image's edge."""
 
     def __post_init__(self) -> None:
         for name in ("patch", "grain_patch"):
@@ -121,6 +140,10 @@ class RealismSettings:
         if not self.homogeneity > 0:
             raise ResusError(
                 f"RealismSettings.homogeneity must be positive, got {self.homogeneity}"
+            )
+        if not 0 <= self.min_vessel_area < 1:
+            raise ResusError(
+                f"RealismSettings.min_vessel_area must be in [0, 1), got {self.min_vessel_area}"
             )
 
 
@@ -184,6 +207,27 @@ class SpeckleStats:
 
 
 @dataclass(frozen=True)
+class VesselShapeStats:
+    """The vessel cross-sections of a set: how many, how elongated, how large, how deep."""
+
+    regions: int
+    """Vessel regions counted (at least `RealismSettings.min_vessel_area`)."""
+    showing_share: float
+    """Share of the images that show at least one such region."""
+    aspect_quantiles: tuple[float, ...]
+    """Quantiles `QUANTILES` of the regions' aspect (length over width, >= 1)."""
+    elongated_share: float
+    """Share of the regions more than `ELONGATED_ASPECT` times longer than wide."""
+    area_quantiles: tuple[float, ...]
+    """Quantiles `QUANTILES` of the regions' areas, as shares of their images' imaged area."""
+    depth_quantiles: tuple[float, ...]
+    """Quantiles `QUANTILES` of the regions' centre depths, as shares of the imaged height
+    (0: the face, 1: the bottom)."""
+    aspects: tuple[float, ...]
+    """Every region's aspect, for the figure's distribution."""
+
+
+@dataclass(frozen=True)
 class RealismStats:
     """Grey levels, contrast and speckle of one image set, pooled over its imaged area."""
 
@@ -216,6 +260,8 @@ class RealismStats:
     near field."""
     speckle: SpeckleStats | None
     """None when no window qualifies."""
+    vessel_shapes: VesselShapeStats | None
+    """None when no image shows a vessel region."""
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -227,6 +273,13 @@ TableRow = tuple[str, Callable[[RealismStats], float | None], int]
 def _speckle(get: Callable[[SpeckleStats], float | None]) -> Callable[[RealismStats], float | None]:
     """A table row's getter of a speckle figure: None for a set without tissue windows."""
     return lambda stats: None if stats.speckle is None else get(stats.speckle)
+
+
+def _shapes(
+    get: Callable[[VesselShapeStats], float | None],
+) -> Callable[[RealismStats], float | None]:
+    """A table row's getter of a vessel-shape figure: None for a set without vessel regions."""
+    return lambda stats: None if stats.vessel_shapes is None else get(stats.vessel_shapes)
 
 
 def _band(band: int) -> Callable[[RealismStats], float | None]:
@@ -249,9 +302,20 @@ TABLE: tuple[TableRow, ...] = (
     ("speckle std (grey)", _speckle(lambda s: s.std), 2),
     ("speckle std / Rayleigh", _speckle(lambda s: s.std_to_rayleigh), 3),
     ("implied dynamic range (dB)", _speckle(lambda s: s.implied_dynamic_range_db), 1),
-    ("window grey SNR, median", _speckle(lambda s: s.snr_quantiles[QUANTILES.index(0.5)]), 2),
+    ("window grey SNR, median", _speckle(lambda s: s.snr_quantiles[MEDIAN]), 2),
     ("grain axial FWHM (px)", _speckle(lambda s: s.grain_axial), 2),
     ("grain lateral FWHM (px)", _speckle(lambda s: s.grain_lateral), 2),
+    ("vessel regions", _shapes(lambda s: s.regions), 0),
+    ("images showing a vessel (share)", _shapes(lambda s: s.showing_share), 3),
+    ("vessel aspect, median", _shapes(lambda s: s.aspect_quantiles[MEDIAN]), 2),
+    ("vessel aspect, 90th percentile", _shapes(lambda s: s.aspect_quantiles[NINETIETH]), 2),
+    (
+        f"vessels over {ELONGATED_ASPECT:g}x longer than wide (share)",
+        _shapes(lambda s: s.elongated_share),
+        3,
+    ),
+    ("vessel area, median (% of image)", _shapes(lambda s: 100 * s.area_quantiles[MEDIAN]), 2),
+    ("vessel centre depth, median (share)", _shapes(lambda s: s.depth_quantiles[MEDIAN]), 3),
 )
 """The comparison's rows: label, the figure of a set, decimals shown. The first five are the
 issue's table; speckle rows are None for a set without tissue windows."""
@@ -404,6 +468,9 @@ class _Accumulator:
         size = settings.grain_patch
         self.correlation = np.zeros((2 * size, 2 * size))
         self.grain_patches = 0
+        self.regions: list[tuple[float, float, float]] = []
+        """(aspect, area share, depth share) of each vessel region."""
+        self.showing = 0
 
     def add(self, image: np.ndarray, vessel: np.ndarray) -> None:
         from scipy import ndimage
@@ -430,6 +497,9 @@ class _Accumulator:
             correlations = np.fft.irfft2(np.abs(spectrum) ** 2, s=self.correlation.shape)
             self.correlation += (correlations / correlations[:, :1, :1]).sum(axis=0)
             self.grain_patches += len(grains)
+        regions = vessel_regions(vessel, self.settings.min_vessel_area)
+        self.regions.extend(regions)
+        self.showing += bool(regions)
 
     def depth_profile(self) -> tuple[float | None, ...]:
         """Mean tissue grey of each depth band (None where a band had no tissue)."""
@@ -449,9 +519,7 @@ class _Accumulator:
         return SpeckleStats(
             patches=len(means),
             std=std,
-            snr_quantiles=tuple(
-                float(q) for q in np.quantile(means / np.sqrt(variances), QUANTILES)
-            ),
+            snr_quantiles=_quantiles(means / np.sqrt(variances)),
             dynamic_range_db=dynamic_range_db,
             rayleigh_std=rayleigh,
             std_to_rayleigh=None if rayleigh is None else std / rayleigh,
@@ -459,6 +527,20 @@ class _Accumulator:
             grain_patches=self.grain_patches,
             grain_axial=axial,
             grain_lateral=lateral,
+        )
+
+    def vessel_shapes(self, images: int) -> VesselShapeStats | None:
+        if not self.regions:
+            return None
+        aspects, areas, depths = (np.array(column) for column in zip(*self.regions, strict=True))
+        return VesselShapeStats(
+            regions=len(aspects),
+            showing_share=self.showing / images,
+            aspect_quantiles=_quantiles(aspects),
+            elongated_share=float((aspects > ELONGATED_ASPECT).mean()),
+            area_quantiles=_quantiles(areas),
+            depth_quantiles=_quantiles(depths),
+            aspects=tuple(float(a) for a in aspects),
         )
 
     def _grain(self) -> tuple[float | None, float | None]:
@@ -474,6 +556,38 @@ class _Accumulator:
             full_width_half_maximum(axial / axial[0]),
             full_width_half_maximum(lateral / lateral[0]),
         )
+
+
+def vessel_regions(vessel: np.ndarray, min_area: float) -> list[tuple[float, float, float]]:
+    """(aspect, area share, centre depth share) of each 8-connected region of the imaged
+    area's vessel mask `vessel` that covers at least `min_area` of it (module docstring)."""
+    from scipy import ndimage
+
+    if not vessel.any():
+        return []
+    labelled, _ = ndimage.label(vessel, structure=np.ones((3, 3), bool))
+    found = []
+    for label, region in enumerate(ndimage.find_objects(labelled), start=1):
+        assert region is not None  # the labels run from 1 without gaps
+        rows, cols = np.nonzero(labelled[region] == label)
+        if rows.size < max(1.0, min_area * vessel.size):
+            continue
+        points = np.stack([rows, cols]).astype(np.float64)
+        covariance = np.cov(points, bias=True) + PIXEL_SECOND_MOMENT * np.eye(2)
+        smallest, largest = np.linalg.eigvalsh(covariance)
+        centre_row = region[0].start + rows.mean() + 0.5  # pixel centres lie at row + 0.5
+        found.append(
+            (
+                math.sqrt(largest / smallest),
+                rows.size / vessel.size,
+                centre_row / vessel.shape[0],
+            )
+        )
+    return found
+
+
+def _quantiles(values: np.ndarray) -> tuple[float, ...]:
+    return tuple(float(q) for q in np.quantile(values, QUANTILES))
 
 
 def full_width_half_maximum(profile: np.ndarray) -> float | None:
@@ -537,6 +651,7 @@ def measure(images: ImageSet, settings: RealismSettings | None = None) -> Realis
         depth_profile=profile,
         depth_falloff=falloff,
         speckle=sums.speckle(images.dynamic_range_db),
+        vessel_shapes=sums.vessel_shapes(len(images)),
     )
 
 
@@ -593,12 +708,14 @@ def _with_vessels(images: ImageSet, count: int) -> list[int]:
 
 def save_histograms_png(path: str | Path, comparison: RealismComparison) -> Path:
     """Both sets' grey-level histograms overlaid, bars of the table's grey figures and of the
-    lumen/tissue ratio, and their depth profiles; credited."""
+    lumen/tissue ratio, their depth profiles and their vessels' aspect distributions; credited."""
     from matplotlib.figure import Figure
 
     sets = (comparison.simulated, comparison.real)
-    figure = Figure(figsize=(19, 4.4))
-    histogram, greys, ratios, depths = figure.subplots(1, 4, width_ratios=(2.2, 2.0, 0.9, 1.4))
+    figure = Figure(figsize=(23, 4.4))
+    histogram, greys, ratios, depths, aspects = figure.subplots(
+        1, 5, width_ratios=(2.2, 2.0, 0.9, 1.4, 1.6)
+    )
     for stats in sets:
         colour = SET_COLOURS.get(stats.name)
         label = f"{stats.name} ({stats.images} images)"
@@ -620,6 +737,11 @@ def save_histograms_png(path: str | Path, comparison: RealismComparison) -> Path
         ratios.bar(offset, stats.lumen_tissue or 0.0, width, color=colour, label=stats.name)
         profile = [np.nan if grey is None else grey for grey in stats.depth_profile]
         depths.plot(profile, np.arange(DEPTH_BANDS) + 1, "o-", color=colour, label=stats.name)
+        if stats.vessel_shapes is not None:
+            ordered = np.sort(stats.vessel_shapes.aspects)
+            shares = np.arange(1, len(ordered) + 1) / len(ordered)
+            label = f"{stats.name} ({len(ordered)} vessels)"
+            aspects.step(ordered, shares, where="post", color=colour, label=label)
     greys.set_xticks(np.arange(len(figures)), [label for label, _ in figures])
     greys.set_ylim(0, GREY_LEVELS - 1)
     greys.set_ylabel("grey level")
@@ -635,6 +757,14 @@ def save_histograms_png(path: str | Path, comparison: RealismComparison) -> Path
     depths.set_ylabel("depth fifth of the imaged area")
     depths.set_title("grey by depth")
     depths.legend()
+    aspects.axvline(ELONGATED_ASPECT, color="grey", linestyle=":", linewidth=0.8)
+    aspects.set_xscale("log")
+    aspects.set_xlim(1, 20)
+    aspects.set_ylim(0, 1)
+    aspects.set_xlabel("vessel aspect (length / width)")
+    aspects.set_ylabel("share of vessel regions at or below")
+    aspects.set_title("vessel shapes (dotted: flattened)")
+    aspects.legend()
     figure.suptitle(f"simulated vs real grey levels   ({REAL_CREDIT})")
     figure.tight_layout()
     return _save(figure, Path(path), 90)
@@ -700,7 +830,10 @@ def _report_lines(comparison: RealismComparison, sources: Mapping[str, object]) 
         "vessel, homogeneous and unclipped (the Rayleigh reference is the 5.57 dB std of "
         f"log-compressed speckle at the simulated display's {_dynamic_range(sim)} dynamic "
         "range; real images do not record theirs); grain: autocorrelation FWHM over "
-        f"{settings.grain_patch} px windows, in each set's own pixels.",
+        f"{settings.grain_patch} px windows, in each set's own pixels. Vessel shapes: each "
+        f"connected vessel region of at least {settings.min_vessel_area:.2%} of its image's "
+        "imaged area; aspect = sqrt of its second moments' eigenvalue ratio (length over "
+        "width), area and centre depth as shares of the imaged area and height.",
         "",
         f"![simulated and real images]({SIM_VS_REAL_PNG})",
         f"![grey-level histograms]({HISTOGRAMS_PNG})",

@@ -86,6 +86,8 @@ def test_writes_the_table_and_figures(monkeypatch, capsys, sweep_path, real_fold
     assert real == pytest.approx(0.6, abs=0.1)  # the generated lumens are 0.6 of the tissue
     assert summary["simulated"]["speckle"]["rayleigh_std"] > 0
     assert summary["real"]["speckle"]["rayleigh_std"] is None
+    assert table["vessel regions"]["real"] == 3  # one disc in each real-like image
+    assert table["vessel aspect, median"]["real"] == pytest.approx(1.0, abs=0.03)
     report = (out / "realism.md").read_text()
     assert "tmkand/usgra-seg (CC BY 4.0)" in report
     assert f"| lumen/tissue | {simulated:.3f} | {real:.3f} |" in report

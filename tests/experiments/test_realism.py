@@ -24,6 +24,7 @@ from resus.experiments.realism import (
     rayleigh_grey_std,
     read_image_folder,
     read_sweep_set,
+    vessel_regions,
 )
 from resus.sweep.io import write_sweep
 from sim.labels import ARTERY, VEIN
@@ -191,6 +192,69 @@ def test_full_width_half_maximum_interpolates() -> None:
     assert full_width_half_maximum(np.array([1.0, 0.9, 0.8])) is None
 
 
+def ellipse(
+    shape: tuple[int, int],
+    centre: tuple[float, float],
+    semi_axes: tuple[float, float],
+    angle: float,
+) -> np.ndarray:
+    """Pixels whose centres lie in the ellipse of `semi_axes` (along, across) turned by
+    `angle` (radians) from the rows."""
+    rows, cols = np.indices(shape) + 0.5 - np.array(centre)[:, None, None]
+    along = rows * math.cos(angle) + cols * math.sin(angle)
+    across = -rows * math.sin(angle) + cols * math.cos(angle)
+    return (along / semi_axes[0]) ** 2 + (across / semi_axes[1]) ** 2 <= 1
+
+
+def test_a_pixel_rectangle_has_its_side_ratio_as_aspect_exactly() -> None:
+    """n pixels in a row spread (n^2 - 1) / 12 about their centre, and each pixel's own square
+    adds 1 / 12: n^2 / 12, so a w x h block's aspect is h / w exactly, a one-pixel line's too."""
+    mask = np.zeros((100, 80), bool)
+    mask[10:40, 20:26] = True  # 30 rows by 6 columns
+    mask[70, 5:45] = True  # a one-pixel line, 40 long
+    (block, block_area, block_depth), (line, _, line_depth) = vessel_regions(mask, 0.0)
+    assert block == pytest.approx(5.0, rel=1e-12)
+    assert line == pytest.approx(40.0, rel=1e-12)
+    assert block_area == 180 / mask.size
+    assert block_depth == pytest.approx(25.0 / 100) and line_depth == pytest.approx(70.5 / 100)
+
+
+def test_a_turned_ellipse_has_its_axis_ratio_area_and_depth() -> None:
+    mask = ellipse((200, 240), (80.0, 120.0), (45.0, 15.0), math.radians(30))
+    ((aspect, area, depth),) = vessel_regions(mask, 0.0)
+    assert aspect == pytest.approx(3.0, rel=0.01)
+    assert area == pytest.approx(math.pi * 45 * 15 / mask.size, rel=0.01)
+    assert depth == pytest.approx(80.0 / 200, abs=1e-3)
+
+
+def test_vessel_shapes_count_regions_above_the_least_area_over_the_imaged_area() -> None:
+    """Two vessels in one padded image (a circle and a 4:1 slit) and a speck too small to
+    count; a second image shows none. Depth is a share of the imaged height, padding out."""
+    first = np.zeros((120, 100), np.uint8)
+    first[20:120] = 90  # 20 black rows above the imaged area
+    vessel = np.zeros(first.shape, bool)
+    vessel |= disc(first.shape, (50, 30), 10)
+    vessel[90:94, 50:66] = True  # 4 x 16: aspect 4
+    vessel[30, 90] = True  # a one-pixel speck: under 0.05 % of 10 000 pixels
+    second = np.full((100, 100), 90, np.uint8)
+    images = ImageSet(
+        "test", (first, second), (vessel, np.zeros(second.shape, bool)), ("a.png", "b.png")
+    )
+    shapes = measure(images).vessel_shapes
+    assert shapes is not None
+    assert shapes.regions == 2 and shapes.showing_share == 0.5
+    assert sorted(shapes.aspects) == [pytest.approx(1.0, abs=0.02), pytest.approx(4.0)]
+    assert shapes.elongated_share == 0.5
+    circle = vessel[20:].sum() - 64 - 1  # the disc's pixels, the slit and speck taken away
+    assert max(shapes.area_quantiles) == pytest.approx(
+        np.quantile([circle / 10_000, 64 / 10_000], 0.9)
+    )
+    assert min(shapes.depth_quantiles) == pytest.approx(
+        np.quantile([(50 - 20 + 0.5) / 100, (92 - 20 + 0.5) / 100], 0.1), abs=0.002
+    )
+    assert measure(one_image(second)).vessel_shapes is None
+
+
 def test_settings_are_checked() -> None:
     with pytest.raises(ResusError, match=r"RealismSettings\.patch"):
         RealismSettings(patch=7)
@@ -198,6 +262,8 @@ def test_settings_are_checked() -> None:
         RealismSettings(blank_fraction=0)
     with pytest.raises(ResusError, match=r"RealismSettings\.homogeneity"):
         RealismSettings(homogeneity=-1)
+    with pytest.raises(ResusError, match=r"RealismSettings\.min_vessel_area"):
+        RealismSettings(min_vessel_area=1)
 
 
 def test_comparison_table_starts_with_the_issue_figures() -> None:
