@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from resus.acquisition.scanner import ScanAborted, ScanResult
 from resus.errors import ResusError
 from resus.execution import granted_cpus
 
@@ -22,6 +23,12 @@ def refuse(item: int) -> int:
     if item < 0:
         raise ResusError(f"item {item} is negative")
     return item
+
+
+def abort_scan(item: int) -> None:
+    """A unit whose scan aborts after `item` frames, as a simulated sweep does when contact
+    never settles."""
+    raise ScanAborted(f"no stable contact in unit {item}", ScanResult(Path("s.h5"), item, 0.5))
 
 
 def count_and_square(job: tuple[int, str]) -> int:

@@ -87,6 +87,12 @@ class ScanAborted(ResusError):
             f"the {result.frames} frames recorded before it"
         )
 
+    def __reduce__(self) -> tuple[type[ScanAborted], tuple[str, ScanResult]]:
+        """Rebuilt from its reason and result when unpickled: a scan in a worker process
+        hands its abort back this way, and the default (the message alone) would fail there
+        and break the worker pool, hiding the reason."""
+        return type(self), (self.reason, self.result)
+
 
 class _PoseHistory:
     """Robot-clock samples of TCP pose, wrench and joints, interpolated at any covered time."""

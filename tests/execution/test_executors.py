@@ -13,8 +13,9 @@ from pathlib import Path
 
 import pytest
 from cli_runner import free_port
-from executor_units import count_and_square, granted, refuse
+from executor_units import abort_scan, count_and_square, granted, refuse
 
+from resus.acquisition.scanner import ScanAborted, ScanResult
 from resus.errors import ResusError
 from resus.execution import (
     LocalExecutor,
@@ -52,6 +53,15 @@ def test_units_share_the_local_cores_by_their_resources():
 def test_a_unit_error_reaches_the_caller_as_raised():
     with pytest.raises(ResusError, match=r"^item -2 is negative$"):
         LocalExecutor(2).map(refuse, [1, -2, 3], "t", "x", progress=False)
+
+
+def test_an_aborted_scan_in_a_worker_keeps_its_reason_and_result():
+    """A ScanAborted raised in a spawned worker crosses back whole (pickled from its reason
+    and result), not as a broken pool reported as a dead worker."""
+    with pytest.raises(ScanAborted, match=r"^scan stopped: no stable contact in unit \d; ") as info:
+        LocalExecutor(2).map(abort_scan, [0, 1], "scans", "scan", progress=False)
+    unit = int(info.value.reason.rsplit(" ", 1)[1])
+    assert info.value.result == ScanResult(Path("s.h5"), unit, 0.5)
 
 
 def test_a_dead_local_worker_is_one_line_that_says_how_to_resume():
