@@ -258,6 +258,9 @@ class RealismStats:
     """The deepest band's tissue grey over the second's: below 1, the image darkens with
     depth. The second band, not the first, because the first holds the skin and the probe's
     near field."""
+    depth_falloff_quantiles: tuple[float, ...] | None
+    """Quantiles `QUANTILES` of the same ratio image by image (None when no image has tissue
+    in both bands): the pooled ratio hides how often a frame goes dark at depth."""
     speckle: SpeckleStats | None
     """None when no window qualifies."""
     vessel_shapes: VesselShapeStats | None
@@ -282,6 +285,13 @@ def _shapes(
     return lambda stats: None if stats.vessel_shapes is None else get(stats.vessel_shapes)
 
 
+def _falloffs(quantile: int) -> Callable[[RealismStats], float | None]:
+    """A table row's getter of one quantile of the per-image depth falloff."""
+    return lambda s: (
+        None if s.depth_falloff_quantiles is None else s.depth_falloff_quantiles[quantile]
+    )
+
+
 def _band(band: int) -> Callable[[RealismStats], float | None]:
     """A table row's getter of one depth band's tissue grey."""
     return lambda stats: stats.depth_profile[band]
@@ -299,6 +309,8 @@ TABLE: tuple[TableRow, ...] = (
     ("CNR", lambda s: s.cnr, 3),
     *((f"tissue grey, depth fifth {band + 1}", _band(band), 1) for band in range(DEPTH_BANDS)),
     ("deepest / second fifth", lambda s: s.depth_falloff, 3),
+    ("deepest / second fifth, per image median", _falloffs(MEDIAN), 3),
+    ("deepest / second fifth, per image 90th percentile", _falloffs(NINETIETH), 3),
     ("speckle std (grey)", _speckle(lambda s: s.std), 2),
     ("speckle std / Rayleigh", _speckle(lambda s: s.std_to_rayleigh), 3),
     ("implied dynamic range (dB)", _speckle(lambda s: s.implied_dynamic_range_db), 1),
@@ -463,6 +475,8 @@ class _Accumulator:
         self.lumen = np.zeros(GREY_LEVELS, np.int64)
         self.band_sums = np.zeros(DEPTH_BANDS)
         self.band_pixels = np.zeros(DEPTH_BANDS, np.int64)
+        self.falloffs: list[float] = []
+        """Each image's own deepest / second band ratio."""
         self.window_means: list[np.ndarray] = []
         self.window_variances: list[np.ndarray] = []
         size = settings.grain_patch
@@ -480,10 +494,15 @@ class _Accumulator:
         self.tissue += np.bincount(image[~vessel], minlength=GREY_LEVELS)
         self.lumen += np.bincount(image[vessel], minlength=GREY_LEVELS)
         edges = np.arange(DEPTH_BANDS + 1) * image.shape[0] // DEPTH_BANDS
+        sums, pixels = np.zeros(DEPTH_BANDS), np.zeros(DEPTH_BANDS, np.int64)
         for band, (top, bottom) in enumerate(pairwise(edges)):
             tissue = image[top:bottom][~vessel[top:bottom]]
-            self.band_sums[band] += tissue.sum(dtype=np.float64)
-            self.band_pixels[band] += tissue.size
+            sums[band], pixels[band] = tissue.sum(dtype=np.float64), tissue.size
+        self.band_sums += sums
+        self.band_pixels += pixels
+        falloff = depth_falloff(_band_means(sums, pixels))
+        if falloff is not None:
+            self.falloffs.append(falloff)
         usable = ~vessel
         if vessel.any() and self.settings.vessel_margin > 0:
             usable = ndimage.distance_transform_edt(usable) >= self.settings.vessel_margin
@@ -503,10 +522,7 @@ class _Accumulator:
 
     def depth_profile(self) -> tuple[float | None, ...]:
         """Mean tissue grey of each depth band (None where a band had no tissue)."""
-        return tuple(
-            float(total / pixels) if pixels else None
-            for total, pixels in zip(self.band_sums, self.band_pixels, strict=True)
-        )
+        return _band_means(self.band_sums, self.band_pixels)
 
     def speckle(self, dynamic_range_db: float | None) -> SpeckleStats | None:
         means = np.concatenate(self.window_means)
@@ -556,6 +572,20 @@ class _Accumulator:
             full_width_half_maximum(axial / axial[0]),
             full_width_half_maximum(lateral / lateral[0]),
         )
+
+
+def _band_means(sums: np.ndarray, pixels: np.ndarray) -> tuple[float | None, ...]:
+    """Mean grey of each band from its sum and pixel count (None for a band without any)."""
+    return tuple(
+        float(total / count) if count else None for total, count in zip(sums, pixels, strict=True)
+    )
+
+
+def depth_falloff(profile: Sequence[float | None]) -> float | None:
+    """The deepest band's grey over the second's (None when either has no tissue, or the
+    second is black)."""
+    second, deepest = profile[1], profile[-1]
+    return deepest / second if second and deepest is not None else None
 
 
 def vessel_regions(vessel: np.ndarray, min_area: float) -> list[tuple[float, float, float]]:
@@ -632,8 +662,6 @@ def measure(images: ImageSet, settings: RealismSettings | None = None) -> Realis
         noise = math.sqrt(tissue_variance + lumen_variance)
         cnr = abs(tissue_mean - lumen_mean) / noise if noise > 0 else None
     profile = sums.depth_profile()
-    second, deepest = profile[1], profile[-1]
-    falloff = deepest / second if second and deepest is not None else None
     return RealismStats(
         name=images.name,
         images=len(images),
@@ -649,7 +677,8 @@ def measure(images: ImageSet, settings: RealismSettings | None = None) -> Realis
         contrast_db=contrast,
         cnr=cnr,
         depth_profile=profile,
-        depth_falloff=falloff,
+        depth_falloff=depth_falloff(profile),
+        depth_falloff_quantiles=_quantiles(np.array(sums.falloffs)) if sums.falloffs else None,
         speckle=sums.speckle(images.dynamic_range_db),
         vessel_shapes=sums.vessel_shapes(len(images)),
     )

@@ -14,6 +14,7 @@ from scipy.spatial import cKDTree
 
 from resus.errors import ResusError
 from resus.experiments.realism import (
+    QUANTILES,
     RAYLEIGH_LOG_STD_DB,
     ImageSet,
     RealismSettings,
@@ -116,6 +117,18 @@ def test_depth_profile_is_the_tissue_mean_of_each_fifth_of_the_imaged_area() -> 
     assert stats.depth_profile[0] == pytest.approx(140.5)  # rows of grey 150 down to 131
     assert stats.depth_falloff == pytest.approx(expected[4] / expected[1])
     assert stats.depth_falloff < 1  # darker with depth
+
+
+def test_per_image_depth_falloff_quantiles_differ_from_the_pooled_ratio() -> None:
+    """A frame dark at depth and one evenly grey: per image 0.2 and 1, pooled over both
+    (equal sizes) (20 + 100) / (100 + 100) = 0.6."""
+    dark = np.full((50, 20), 100, np.uint8)
+    dark[40:] = 20
+    even = np.full((50, 20), 100, np.uint8)
+    images = ImageSet("test", (dark, even), (np.zeros((50, 20), bool),) * 2, ("a", "b"))
+    stats = measure(images)
+    assert stats.depth_falloff == pytest.approx(0.6)
+    assert stats.depth_falloff_quantiles == pytest.approx(np.quantile([0.2, 1.0], QUANTILES))
 
 
 def test_an_all_black_set_is_refused() -> None:
