@@ -132,6 +132,28 @@ def test_force_limit_violation_stops_and_keeps_a_shorter_sweep(tmp_path) -> None
     assert np.abs(robot.ur3e.joint_velocities()).max() < 1e-3  # the robot was stopped
 
 
+def test_a_light_press_settles_and_sweeps_at_its_force(tmp_path) -> None:
+    """1 N, a vascular scan's touch: force mode crosses the approach gap slowly at so small
+    a force, and the press must still settle within the default wait (it did not in 5 s)."""
+    _robot, _probe, scanner, trajectory, path = scan(tmp_path, contact_force=1.0)
+    scanner.run(trajectory, path, source="sim")
+    sweep = read_sweep(path)
+    along_probe = np.einsum("ni,ni->n", sweep.wrench[:, :3], sweep.probe_to_base[:, :3, 2])
+    np.testing.assert_allclose(along_probe, 1.0, rtol=0.1)
+
+
+def test_a_press_that_does_not_settle_in_time_stops_in_one_line(tmp_path) -> None:
+    robot, _probe, scanner, trajectory, path = scan(
+        tmp_path, settings=ScannerSettings(settle_time=0.5, progress=False)
+    )
+    with pytest.raises(
+        ScanAborted, match=r"no stable contact: force 0\.00 N after 0\.5 s, wanted 4"
+    ) as error:
+        scanner.run(trajectory, path, source="sim")
+    assert error.value.result.frames == 0
+    assert np.abs(robot.ur3e.joint_velocities()).max() < 1e-3  # the robot was stopped
+
+
 def test_plan_outside_the_workspace_is_refused_before_moving(tmp_path) -> None:
     limits = SafetyLimits(workspace_min=(-0.45, -0.45, 0.10), workspace_max=(0.45, 0.45, 0.45))
     robot, _probe, scanner, trajectory, path = scan(tmp_path, limits=limits)
