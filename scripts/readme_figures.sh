@@ -17,7 +17,7 @@
 # /tmp/resus_readme_figures): a rerun after a crash trains only what had not finished. The
 # demo always starts from an empty folder, so its wall times are a first run's. Run it with
 # the project's venv active (or PYTHON=.venv/bin/python). The Sim-to-real figures come from
-# scripts/realism_figures.sh and `resus experiment sim2real` (see the README).
+# scripts/realism_figures.py and `resus experiment sim2real` (see the README).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python="${PYTHON:-python}"
