@@ -12,6 +12,12 @@ mask and prediction are both empty for a class scores IoU 1 and Dice 1 for it: p
 nothing where there is nothing is exactly right (the same rule as the pooled IoU of an empty
 union). Such images are counted in `both_empty`, so their share of a mean can be judged.
 
+By vessel size. The pooled score hides where a model fails, so the images are also grouped by
+their true vessel area as a share of the image (`VESSEL_SIZE_EDGES`), each group with its
+pooled vessel IoU, the images where the model found none of the vessel, and its predicted over
+true vessel area; the images without a vessel report the share of the image called vessel
+(false positives and nothing else).
+
 Overlays (`overlays/NAME.png`): the grey image with the prediction tinted in each class's
 `sim.labels` colour (artery red, vein blue) and the true vessels' outline in yellow.
 """
@@ -21,6 +27,7 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 from pathlib import Path
 
 import cv2
@@ -34,11 +41,15 @@ from resus.segmentation.metrics import intersection_and_union, iou_of, overlap_c
 from resus.segmentation.trained_model import Segmenter
 from sim.labels import EXTRA_COLOURS, VESSEL_CLASSES, tint_labels
 
-SCHEMA = "resus.evaluation/2"
+SCHEMA = "resus.evaluation/3"
 PREDICTION_ALPHA = 0.45
 """Opacity of the predicted classes' tint in the overlays."""
 TRUTH_COLOUR = EXTRA_COLOURS[1]
 """Colour of the true vessels' outline (yellow: apart from the classes' red and blue)."""
+VESSEL_SIZE_EDGES = (0.015, 0.03, 0.06)
+"""Edges of the true vessel area, as a share of the image, between the `by_vessel_size` groups:
+a femoral or regional-anaesthesia export's vessels cover from under 1 % to over 10 % of it, and
+the small ones are where models trained on simulation fail most (README Sim-to-real)."""
 
 
 @dataclass(frozen=True)
@@ -91,12 +102,40 @@ def overlaps(
 
 
 @dataclass(frozen=True)
+class SizeGroup:
+    """The images whose true vessel area falls in one `VESSEL_SIZE_EDGES` interval."""
+
+    label: str
+    """The interval as a share of the image ("none", "< 1.5 %", "1.5-3 %", ...)."""
+    images: int
+    vessel: Overlap
+    """Vessel overlap pooled over the group."""
+    missed: int
+    """Images with a vessel of which the model found no pixel."""
+    predicted_share: float
+    """Predicted vessel area over the true one (for "none": over the image's area)."""
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "label": self.label,
+            "images": self.images,
+            "vessel": self.vessel.to_dict(),
+            "missed": self.missed,
+            "predicted_share": self.predicted_share,
+        }
+
+
+@dataclass(frozen=True)
 class Evaluation:
     """Per-image overlaps of a model's labels with the truth, and the scores made of them."""
 
     classes: tuple[str, ...]
     names: tuple[str, ...]
     per_image: tuple[dict[str, Overlap], ...]
+    true_pixels: tuple[int, ...]
+    """Each image's true vessel pixels."""
+    image_pixels: tuple[int, ...]
+    """Each image's pixels."""
 
     def pooled(self) -> dict[str, Overlap]:
         """Overlap per class summed over every image."""
@@ -121,8 +160,37 @@ class Evaluation:
             name: sum(image[name].union == 0 for image in self.per_image) for name in self.classes
         }
 
+    def by_vessel_size(self) -> tuple[SizeGroup, ...]:
+        """The images grouped by true vessel area (module docstring); empty groups left out."""
+        shares = np.array(self.true_pixels) / np.array(self.image_pixels)
+        edges = (0.0, *VESSEL_SIZE_EDGES, np.inf)
+        bounds = [("none", shares == 0)] + [
+            (_size_label(low, high), (shares > 0) & (shares >= low) & (shares < high))
+            for low, high in pairwise(edges)
+        ]
+        groups = []
+        for label, chosen in bounds:
+            if not chosen.any():
+                continue
+            index = np.flatnonzero(chosen)
+            group_overlaps = [self.per_image[i][VESSEL] for i in index]
+            vessel = sum(group_overlaps, Overlap(0, 0))
+            truth = sum(self.true_pixels[i] for i in index)
+            predicted = vessel.union + vessel.intersection - truth
+            whole = truth if truth else sum(self.image_pixels[i] for i in index)
+            groups.append(
+                SizeGroup(
+                    label=label,
+                    images=len(index),
+                    vessel=vessel,
+                    missed=sum(o.intersection == 0 for o in group_overlaps) if truth else 0,
+                    predicted_share=predicted / whole,
+                )
+            )
+        return tuple(groups)
+
     def to_dict(self) -> dict:
-        """JSON-able form: pooled and mean scores, then every image's."""
+        """JSON-able form: pooled and mean scores, the groups by vessel size, every image's."""
         return {
             "classes": list(self.classes),
             "images": len(self.names),
@@ -130,9 +198,16 @@ class Evaluation:
             "per_image_mean": self.per_image_mean(),
             "both_empty": self.both_empty(),
             "empty_rule": "a class absent from both mask and prediction scores IoU 1 and Dice 1",
+            "by_vessel_size": [group.to_dict() for group in self.by_vessel_size()],
             "per_image": [
-                {"name": name, **{c: overlap.to_dict() for c, overlap in image.items()}}
-                for name, image in zip(self.names, self.per_image, strict=True)
+                {
+                    "name": name,
+                    "true_vessel_share": truth / pixels,
+                    **{c: overlap.to_dict() for c, overlap in image.items()},
+                }
+                for name, image, truth, pixels in zip(
+                    self.names, self.per_image, self.true_pixels, self.image_pixels, strict=True
+                )
             ],
         }
 
@@ -144,7 +219,30 @@ class Evaluation:
             f"per-image mean IoU {mean[name]['iou']:.3f}, Dice {mean[name]['dice']:.3f} "
             f"({len(self.names)} images, {empty[name]} with none in mask and prediction)"
             for name in self.classes
-        ]
+        ] + [self._size_line()]
+
+    def _size_line(self) -> str:
+        """One line of the vessel scores by true vessel area."""
+        parts = []
+        for group in self.by_vessel_size():
+            if group.label == "none":
+                parts.append(
+                    f"none ({group.images} images): {group.predicted_share:.1%} called vessel"
+                )
+            else:
+                parts.append(
+                    f"{group.label} ({group.images}): IoU {group.vessel.iou:.3f}, "
+                    f"{group.missed} missed"
+                )
+        return "vessel by true area: " + "; ".join(parts)
+
+
+def _size_label(low: float, high: float) -> str:
+    """A `by_vessel_size` interval of the image's share as a label ("< 1.5%", "1.5%-3.0%",
+    ">= 6.0%")."""
+    if low == 0:
+        return f"< {high:.1%}"
+    return f">= {low:.1%}" if high == np.inf else f"{low:.1%}-{high:.1%}"
 
 
 def score_labels(
@@ -156,7 +254,10 @@ def score_labels(
     """The `Evaluation` of predicted label maps against the true ones, image by image."""
     classes = scored_classes(separates_classes)
     per_image = tuple(overlaps(p, t, classes) for p, t in zip(predicted, truth, strict=True))
-    return Evaluation(classes, tuple(names), per_image)
+    true_pixels = tuple(int((labels > 0).sum()) for labels in truth)
+    return Evaluation(
+        classes, tuple(names), per_image, true_pixels, tuple(labels.size for labels in truth)
+    )
 
 
 def overlay(image: np.ndarray, truth: np.ndarray, predicted: np.ndarray) -> np.ndarray:

@@ -61,7 +61,7 @@ def test_evaluate_scores_a_folder_and_writes_metrics_and_overlays(data, monkeypa
     assert f"vessel: pooled IoU {vessel / pixels:.3f}" in stdout
     assert f"wrote {out / 'metrics.json'} and 4 overlays" in stdout
     metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["schema"] == "resus.evaluation/2" and metrics["classes"] == ["vessel"]
+    assert metrics["schema"] == "resus.evaluation/3" and metrics["classes"] == ["vessel"]
     assert metrics["pooled"]["vessel"]["iou"] == pytest.approx(vessel / pixels)
     assert metrics["both_empty"] == {"vessel": 0}  # the model finds vessel everywhere
     assert [row["name"] for row in metrics["per_image"]] == list(SAMPLES)

@@ -58,6 +58,39 @@ def test_iou_and_dice_match_a_hand_count() -> None:
     assert [row["name"] for row in table["per_image"]] == ["a", "b", "c"]
 
 
+def strip(true: int, hit: int, extra: int) -> tuple[np.ndarray, np.ndarray]:
+    """A 10 x 10 truth with `true` vessel pixels (row-major from the corner) and a prediction
+    that finds the first `hit` of them and `extra` pixels from the far corner backwards."""
+    truth, predicted = np.zeros(100, np.uint8), np.zeros(100, np.uint8)
+    truth[:true] = 1
+    predicted[:hit] = 1
+    predicted[100 - extra :] = 1
+    return predicted.reshape(10, 10), truth.reshape(10, 10)
+
+
+def test_scores_by_vessel_size_match_a_hand_count() -> None:
+    """No vessel (5 px called vessel), 1 % missed, 2 % found exactly, and 10 % and 20 % found
+    in part or whole: groups none, < 1.5 %, 1.5-3 %, >= 6 % (3-6 % is empty, left out)."""
+    cases = {"n": (0, 0, 5), "s": (1, 0, 0), "m": (2, 2, 0), "l": (10, 5, 5), "xl": (20, 20, 0)}
+    predicted, truth = zip(*(strip(*case) for case in cases.values()), strict=True)
+    evaluation = score_labels(list(cases), predicted, truth, separates_classes=False)
+    groups = {group.label: group for group in evaluation.by_vessel_size()}
+    assert list(groups) == ["none", "< 1.5%", "1.5%-3.0%", ">= 6.0%"]
+    assert (groups["none"].images, groups["none"].predicted_share) == (1, 0.05)
+    assert (groups["< 1.5%"].vessel.iou, groups["< 1.5%"].missed) == (0.0, 1)
+    assert (groups["1.5%-3.0%"].vessel.iou, groups["1.5%-3.0%"].missed) == (1.0, 0)
+    large = groups[">= 6.0%"]
+    assert (large.images, large.vessel.intersection, large.vessel.union) == (2, 25, 35)
+    assert large.predicted_share == 1.0  # 10 + 20 predicted for 10 + 20 true
+    table = evaluation.to_dict()
+    assert [row["label"] for row in table["by_vessel_size"]] == list(groups)
+    assert [row["true_vessel_share"] for row in table["per_image"]] == [0, 0.01, 0.02, 0.1, 0.2]
+    assert evaluation.summary()[-1] == (
+        "vessel by true area: none (1 images): 5.0% called vessel; < 1.5% (1): IoU 0.000, "
+        "1 missed; 1.5%-3.0% (1): IoU 1.000, 0 missed; >= 6.0% (2): IoU 0.714, 0 missed"
+    )
+
+
 def test_artery_and_vein_are_scored_apart_when_the_masks_tell_them() -> None:
     # truth: artery top-left 2x2, vein bottom-right 2x2
     # prediction: artery top-left 2x2 right, vein called artery in its top row
@@ -149,8 +182,11 @@ def test_evaluate_folder_writes_metrics_and_overlays(tmp_path) -> None:
     assert evaluation.pooled()["vessel"].iou == pytest.approx(vessel_pixels / all_pixels)
     assert metrics["per_image"][1] == {
         "name": "b",
+        "true_vessel_share": 0.0,
         "vessel": {"iou": 0.0, "dice": 0.0, "intersection": 0, "union": 400},
     }
+    none = metrics["by_vessel_size"][0]  # image b: every pixel called artery, none is vessel
+    assert (none["label"], none["images"], none["predicted_share"]) == ("none", 1, 1.0)
     assert metrics["checkpoints"] == [str(tmp_path / "model.pt")] and metrics["device"] == "cpu"
     for name, shape in (("a", (24, 32)), ("b", (20, 20)), ("c", (24, 32))):
         with Image.open(out / "overlays" / f"{name}.png") as written:
