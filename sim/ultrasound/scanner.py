@@ -245,10 +245,11 @@ over-compensated the fat: one pressed view of each of 24 `femoral` subjects unde
 preset brightened with depth (ratio 1.12 / 1.67 / 2.45); with 0.3-0.8 the same views gave
 0.09 / 0.58 / 1.16 (`resus.experiments.realism` measures the ratio of any set). Per frame in
 seed 0's 18 `sim2real` training sweeps, framed as sonographers frame them
-(`Sim2RealSettings.target_depth_fraction` 0.25-0.65), 0.3-0.8 gave 0.07 / 0.46 / 1.15 against
-0.06 / 0.37 / 0.84 real, and a simulation-only model called the real images' dark deep fields
-vessel (in a fifth of them, blobs of up to 30 % of the image); 0.2-0.7 with 6 dB more gain
-gives 0.07 / 0.40 / 0.90 (tissue grey by depth fifth 73 58 47 36 30, real 67 61 47 32 24)."""
+(`Sim2RealSettings.target_depth_fraction` 0.25-0.60), 0.3-0.8 gave 0.07 / 0.46 / 1.15 against
+0.06 / 0.37 / 0.84 real, and a simulation-only model trained at 0.3-0.8 (framed at 0.35-0.75)
+called the real images' dark deep fields vessel, in blobs of up to 30 % of an image; 0.2-0.7
+with 6 dB more gain (framed at 0.25-0.65) gives 0.07 / 0.40 / 0.90 (tissue grey by depth
+fifth 73 58 47 36 30, real 67 61 47 32 24)."""
 
 
 def random_preset(seed: int) -> ScannerPreset:
