@@ -48,6 +48,10 @@ class FemoralAnatomy:
     gsv_radius: float = 0.0020
     artery_wall: float = 0.0006
     vein_wall: float = 0.0004
+    gsv_wall: float = 0.0004
+    """The great saphenous vein's wall: a muscular vein's, thicker than the femoral vein's
+    (about 0.4 mm) for its size, 0.5-0.8 mm on ultrasound; it keeps the GSV round under a
+    probe that flattens thinner-walled veins (`TissueMechanics.vein_wall_stiffness_mmhg`)."""
     bifurcation_y: float = -0.020
     """Where the CFA divides (and the CFV becomes the FV)."""
     dfa_lateral: float = 0.008
@@ -159,8 +163,11 @@ def build_vessels(
         raise ValueError(f"gsv_junction_y {yg} leaves no room for the GSV arch in the body")
     course = _Course(a, lateral, y0)
 
-    def vessel(name: str, label: int, points: np.ndarray, radii: np.ndarray) -> VesselSpec:
-        wall = a.artery_wall if label == ARTERY else a.vein_wall
+    def vessel(
+        name: str, label: int, points: np.ndarray, radii: np.ndarray, wall: float | None = None
+    ) -> VesselSpec:
+        if wall is None:
+            wall = a.artery_wall if label == ARTERY else a.vein_wall
         radii = np.broadcast_to(radii, (len(points),))
         return VesselSpec(name, label, points, radii, wall)
 
@@ -188,7 +195,7 @@ def build_vessels(
         vessel("DFA", ARTERY, dfa, np.asarray(a.dfa_radius)),
         vessel("CFV", VEIN, course.vein(proximal), np.asarray(a.cfv_radius)),
         vessel("FV", VEIN, course.vein(distal), fv_radii),
-        vessel("GSV", VEIN, gsv, np.asarray(a.gsv_radius)),
+        vessel("GSV", VEIN, gsv, np.asarray(a.gsv_radius), a.gsv_wall),
     )
 
 

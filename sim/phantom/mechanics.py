@@ -9,8 +9,9 @@ Four small laws, each a textbook model with its parameters in `TissueMechanics`:
 - **Vein flattening.** A vein stays round while the probe's stress at its centre is below the
   venous pressure (5-15 mmHg, varying with breathing); beyond, its minor axis (along the beam)
   shrinks linearly with the excess pressure, down to `collapsed_fraction` of its radius at
-  `vein_collapse_pressure_mmhg` above venous pressure; its perimeter is kept, so it widens as
-  it flattens (`vein_semi_axes`).
+  `vein_collapse_pressure_mmhg` above venous pressure, more for a thick wall (its bending
+  stiffness, the tube law's (h / R)^3); its perimeter is kept, so it widens as it flattens
+  (`vein_semi_axes`).
 - **Arterial pulsation.** Arteries stay round (arterial pressure, about 90 mmHg, far above what
   a probe exerts) and their diameter follows a systolic waveform at the heart rate: a fast
   rise over the first 15 % of the cycle, then an exponential run-off (`cardiac_waveform`).
@@ -44,8 +45,16 @@ class TissueMechanics:
     venous_pressure_mmhg: float = 10.0
     """Pressure inside the veins at rest (supine femoral vein: 5-15 mmHg)."""
     vein_collapse_pressure_mmhg: float = 50.0
-    """Probe stress above venous pressure at which a vein is fully flattened: the support of
-    its wall and the tissue around it."""
+    """Probe stress above venous pressure at which a thin-walled vein is fully flattened: the
+    support of the tissue around it (a thick wall adds `vein_wall_stiffness_mmhg`'s part)."""
+    vein_wall_stiffness_mmhg: float = 0.0
+    """What a vein's own wall adds to its collapse pressure, per (wall thickness / radius)^3
+    (mmHg). A ring resists flattening with the cube of its wall's thickness over its radius:
+    the tube law's scale is K = E / (12 (1 - nu^2)) (h / R)^3, a ring buckles at 3 K and its
+    opposite walls meet at about 5.2 K (Flaherty et al. 1972), so this is about 5.2 E / 9 for
+    an incompressible wall. 1000 mmHg is E of about 0.23 MPa, a vein wall's at low strain: a
+    great saphenous vein (h / R about 0.3) gains about 27 mmHg and stays oval under a light
+    probe, the common femoral vein (h / R under 0.1) under 1 mmHg. 0: walls without stiffness."""
     collapsed_fraction: float = 0.08
     """Minor semi-axis of a fully collapsed vein, as a fraction of its round radius."""
     heart_rate_bpm: float = 72.0
@@ -69,6 +78,11 @@ class TissueMechanics:
         ):
             if not getattr(self, name) > 0:
                 raise ValueError(f"mechanics.{name} must be positive, got {getattr(self, name)}")
+        if not self.vein_wall_stiffness_mmhg >= 0:
+            raise ValueError(
+                "mechanics.vein_wall_stiffness_mmhg must be >= 0, got "
+                f"{self.vein_wall_stiffness_mmhg}"
+            )
         if not 0 < self.collapsed_fraction < 1:
             raise ValueError(
                 f"mechanics.collapsed_fraction must be in (0, 1), got {self.collapsed_fraction}"
@@ -103,11 +117,15 @@ class TissueMechanics:
         """Arterial radius at `time` over its diastolic radius."""
         return 1.0 + self.arterial_pulsation * cardiac_waveform(self.cardiac_phase_at(time))
 
-    def vein_semi_axes(self, stress_mmhg: float, time: float) -> tuple[float, float]:
+    def vein_semi_axes(
+        self, stress_mmhg: float, time: float, wall_ratio: float = 0.0
+    ) -> tuple[float, float]:
         """(minor, major) semi-axes of a vein over its round radius, under the probe's stress
-        at its centre (mmHg): minor along the beam, major across it."""
+        at its centre (mmHg): minor along the beam, major across it. `wall_ratio`: its wall's
+        thickness over its radius."""
         excess = max(0.0, stress_mmhg - self.venous_pressure(time))
-        minor = max(self.collapsed_fraction, 1.0 - excess / self.vein_collapse_pressure_mmhg)
+        collapse = self.vein_collapse_pressure_mmhg + self.vein_wall_stiffness_mmhg * wall_ratio**3
+        minor = max(self.collapsed_fraction, 1.0 - excess / collapse)
         return minor, perimeter_keeping_major(minor)
 
 

@@ -117,6 +117,7 @@ class ProbeDeformation:
         self.probe = probe
         self._names = [vessel.name for vessel in phantom.spec.vessels]
         self._arteries = [vessel.label == ARTERY for vessel in phantom.spec.vessels]
+        self._walls = [vessel.wall_thickness for vessel in phantom.spec.vessels]
         centrelines, radii = phantom.centrelines(), phantom.centreline_radii()
         self._nodes = np.concatenate([centrelines[name] for name in self._names])
         self._radii = np.concatenate([radii[name] for name in self._names])
@@ -169,11 +170,13 @@ class ProbeDeformation:
         for m, ((index, crossing), stress, centre_shift) in enumerate(
             zip(crossings, stresses, centre_shifts, strict=True)
         ):
+            axis, radius = crossing.axis, crossing.radius
             if self._arteries[index]:
                 minor = major = self.mechanics.artery_scale(load.time)
             else:
-                minor, major = self.mechanics.vein_semi_axes(float(stress), load.time)
-            axis, radius = crossing.axis, crossing.radius
+                minor, major = self.mechanics.vein_semi_axes(
+                    float(stress), load.time, self._walls[index] / radius
+                )
             neighbours = [c for k, (_, c) in enumerate(crossings) if k != m and in_image[k]]
             outer, major = _fitted_ring(crossing, neighbours, minor, major)
             across = beam - (beam @ axis) * axis

@@ -46,15 +46,20 @@ PROBE = LinearProbe(width=0.038, depth=0.04, cols=256, rows=256)
 
 
 def straight_vessels_spec(
-    gel_block_spec: Callable[..., PhantomSpec], mechanics: TissueMechanics | None = MECHANICS
+    gel_block_spec: Callable[..., PhantomSpec],
+    mechanics: TissueMechanics | None = MECHANICS,
+    vein_wall: float = 0.0004,
 ) -> PhantomSpec:
     """A gel block with a straight vein and a straight artery along y at one depth."""
 
-    def tube(name: str, label: int, x: float, radius: float) -> VesselSpec:
+    def tube(name: str, label: int, x: float, radius: float, wall: float) -> VesselSpec:
         points = [[x, -0.07, -DEPTH], [x, 0.0, -DEPTH], [x, 0.07, -DEPTH]]
-        return VesselSpec(name, label, points, [radius] * 3, wall_thickness=0.0004)
+        return VesselSpec(name, label, points, [radius] * 3, wall_thickness=wall)
 
-    vessels = (tube("vein", 2, VEIN_X, VEIN_RADIUS), tube("artery", 1, ARTERY_X, ARTERY_RADIUS))
+    vessels = (
+        tube("vein", 2, VEIN_X, VEIN_RADIUS, vein_wall),
+        tube("artery", 1, ARTERY_X, ARTERY_RADIUS, 0.0004),
+    )
     return gel_block_spec("straight", (0.1, 0.16, 0.06), vessels, mechanics)
 
 
@@ -116,6 +121,17 @@ def test_vein_law_round_below_venous_pressure_then_linear_then_collapsed():
     assert MECHANICS.vein_semi_axes(venous + 2 * collapse, 0.0)[0] == MECHANICS.collapsed_fraction
 
 
+def test_a_thick_wall_adds_the_cube_of_its_thickness_over_radius_to_the_collapse_pressure():
+    """Stiffness 1000 mmHg and h / R = 0.3: the collapse pressure gains 27 mmHg (40 + 27)."""
+    stiff = dataclasses.replace(MECHANICS, vein_wall_stiffness_mmhg=1000.0)
+    venous = MECHANICS.venous_pressure_mmhg
+    minor, major = stiff.vein_semi_axes(venous + 67.0 / 4, 0.0, wall_ratio=0.3)
+    assert minor == pytest.approx(0.75) and major == pytest.approx(perimeter_keeping_major(0.75))
+    thin = stiff.vein_semi_axes(venous + 10.0, 0.0, wall_ratio=0.0)  # no wall: the tissue's law
+    assert thin == MECHANICS.vein_semi_axes(venous + 10.0, 0.0)
+    assert stiff.vein_semi_axes(venous + 200.0, 0.0, 0.3)[0] == MECHANICS.collapsed_fraction
+
+
 def test_cardiac_waveform_rises_in_systole_and_runs_off_to_zero():
     phases = np.linspace(0.0, 1.0, 2001)
     wave = np.array([cardiac_waveform(p) for p in phases])
@@ -141,6 +157,7 @@ def test_undeformed_depths_invert_the_compression():
         ("collapsed_fraction", 1.0, "mechanics.collapsed_fraction must be in"),
         ("arterial_pulsation", 0.6, "mechanics.arterial_pulsation must be in"),
         ("cardiac_phase", 1.0, "mechanics.cardiac_phase must be in"),
+        ("vein_wall_stiffness_mmhg", -1.0, "mechanics.vein_wall_stiffness_mmhg must be >= 0"),
     ],
 )
 def test_mechanics_refuse_bad_values_by_name(field, value, message):
@@ -159,10 +176,23 @@ def test_subjects_draw_mechanics_without_moving_their_anatomy():
     assert make_subject(spec, 0).mechanics != make_subject(spec, 1).mechanics
 
 
+def test_the_saphenous_vein_has_its_own_thicker_wall():
+    subject = make_subject(load_phantom("femoral"), 2)
+    walls = {vessel.name: vessel.wall_thickness for vessel in subject.vessels}
+    assert walls["GSV"] == subject.anatomy.gsv_wall > subject.anatomy.vein_wall
+    assert walls["CFV"] == walls["FV"] == subject.anatomy.vein_wall
+    assert subject.mechanics.vein_wall_stiffness_mmhg > 0
+
+
 # --- deformed images --------------------------------------------------------------------------
 
 
-def expected_vein_semi_axes(force: float, indentation: float) -> tuple[float, float]:
+def expected_vein_semi_axes(
+    force: float,
+    indentation: float,
+    mechanics: TissueMechanics = MECHANICS,
+    wall_ratio: float = 0.0,
+) -> tuple[float, float]:
     """The law at the vein's centre, computed here from the face and the vein's depth."""
     stress = (
         force
@@ -170,7 +200,7 @@ def expected_vein_semi_axes(force: float, indentation: float) -> tuple[float, fl
         / PASCAL_PER_MMHG
         * float(face_stress_fraction(VEIN_X, 0.0, DEPTH - indentation, PROBE.width, 0.01))
     )
-    return MECHANICS.vein_semi_axes(stress, 0.0)
+    return mechanics.vein_semi_axes(stress, 0.0, wall_ratio)
 
 
 @pytest.mark.parametrize("force, indentation", [(2.0, 0.0), (6.0, 0.0), (9.0, 0.004)])
@@ -219,6 +249,22 @@ def test_vein_minor_axis_against_force_follows_the_law(simulator):
         else:  # collapsed to a slit: within a pixel of the law
             assert abs(measured - minor * VEIN_RADIUS) <= pixel
     assert minor == MECHANICS.collapsed_fraction  # the last force collapses the vein
+
+
+def test_a_thick_walled_vein_flattens_by_the_law_with_its_wall(gel_block_spec):
+    """A vein whose wall is 0.3 of its radius, with wall stiffness 1000 mmHg: its label's minor
+    axis is the law's with the 27 mmHg its wall adds, and it stays rounder than a thin-walled
+    vein under the same press."""
+    stiff = dataclasses.replace(MECHANICS, vein_wall_stiffness_mmhg=1000.0)
+    spec = straight_vessels_spec(gel_block_spec, stiff, vein_wall=0.3 * VEIN_RADIUS)
+    thick = UltrasoundSimulator(Phantom(spec), PROBE)
+    lateral, _ = pixel_centres()
+    column = int(np.argmin(np.abs(lateral[0] - VEIN_X)))
+    _, labels = thick.render(pressed_pose(thick.phantom, 0.0), TissueLoad(6.0, 0.0))
+    measured = (labels[:, column] == 2).sum() * PROBE.pixel_height / 2
+    minor, _ = expected_vein_semi_axes(6.0, 0.0, stiff, wall_ratio=0.3)
+    assert measured == pytest.approx(minor * VEIN_RADIUS, rel=0.05)
+    assert minor > expected_vein_semi_axes(6.0, 0.0)[0] + 0.1
 
 
 def test_artery_pulses_at_the_heart_rate_by_the_set_amount_only(simulator):
