@@ -43,6 +43,14 @@ def register(app: typer.Typer) -> None:
         out: Annotated[
             Path, typer.Option(help="Output folder: metrics.json and overlays/NAME.png.")
         ] = Path("evaluation"),
+        mirror: Annotated[
+            bool | None,
+            typer.Option(
+                "--mirror/--no-mirror",
+                help="Also segment each image mirrored left-right and average the two; "
+                "default: when the model trained with horizontal flips.",
+            ),
+        ] = None,
         device: DeviceOption = "auto",
     ) -> None:
         """Segment every image, score vessel IoU and Dice against its mask, draw overlays."""
@@ -54,9 +62,9 @@ def register(app: typer.Typer) -> None:
             torch_device = resolve_device(device)
         with flag_error("--model"):
             trained = (
-                load_model(model[0], torch_device)
+                load_model(model[0], torch_device, mirror)
                 if len(model) == 1
-                else load_ensemble(model, torch_device)
+                else load_ensemble(model, torch_device, mirror)
             )
         data = read_image_folders(images, masks)
         evaluation = evaluate_folder(trained, data, out)

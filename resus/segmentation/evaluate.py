@@ -303,6 +303,7 @@ def evaluate_folder(
         "mask_folder": str(data.mask_folder),
         "device": str(model.device),
         "image_size": model.image_size,
+        "mirror": model.mirror,
         **evaluation.to_dict(),
     }
     (Path(out_dir) / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")

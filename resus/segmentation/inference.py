@@ -4,6 +4,15 @@ Images of any size are resized to the network's square input, and the class scor
 resized back (bilinear) before the arg-max, so labels come out at the images' own size. A
 single network's scores are its logits; an ensemble's are its members' mean class
 probabilities (logits of separately trained networks share no scale, probabilities do).
+
+`mirror` also segments every image mirrored left to right and averages the two (flipped
+back): test-time augmentation with the one flip that is physics, not a trick. A linear
+probe's image of a left groin is the mirror of a right one's, and which side of the screen is
+medial is the sonographer's choice of the probe's orientation, so a network trained with
+horizontal flips must label an image and its mirror alike; where it does not, averaging the
+two cancels part of its error. Measured on the real images of usgra-seg with a 128 px
+simulation-only model (README Sim-to-real): vessel IoU 0.372 alone, 0.397 mirrored; turning
+the image upside down as well (no scanner does) added nothing (0.391).
 """
 
 from __future__ import annotations
@@ -27,12 +36,13 @@ def predict(
     image_size: int,
     batch_size: int = 32,
     progress: bool = False,
+    mirror: bool = False,
 ) -> np.ndarray:
     """(N, H, W) uint8 images (array or h5py dataset) -> (N, H, W) uint8 labels, batched.
 
     Runs on the model's device; `image_size` is the size the model was trained at. A
     sequence of models (an ensemble: one device, one input size) labels by the mean of their
-    class probabilities.
+    class probabilities; `mirror` adds each image's left-right mirror to that mean.
     """
     if len(images.shape) != 3 or images.dtype != np.uint8:
         raise ResusError(f"predict needs (N, H, W) uint8 images, got {images.shape} {images.dtype}")
@@ -48,7 +58,8 @@ def predict(
     starts = range(0, count, batch_size)
     for start in tqdm(starts, desc="segment", unit="batch", disable=not progress):
         batch = np.asarray(images[start : start + batch_size])
-        scores = class_scores(models, images_to_tensor(resize_images(batch, image_size)).to(device))
+        inputs = images_to_tensor(resize_images(batch, image_size)).to(device)
+        scores = class_scores(models, inputs, mirror=mirror)
         if (height, width) != (image_size, image_size):
             scores = nn.functional.interpolate(scores, size=(height, width), mode="bilinear")
         labels[start : start + len(batch)] = class_argmax(scores).cpu().numpy()
@@ -57,14 +68,19 @@ def predict(
     return labels
 
 
-def class_scores(models: Sequence[nn.Module], inputs: torch.Tensor) -> torch.Tensor:
-    """(N, C, H, W) scores of `inputs`: one model's logits, or several models' mean softmax."""
-    if len(models) == 1:
+def class_scores(
+    models: Sequence[nn.Module], inputs: torch.Tensor, *, mirror: bool = False
+) -> torch.Tensor:
+    """(N, C, H, W) scores of `inputs`: one model's logits, or the mean softmax of several
+    models, or of one or several models on the inputs and on their left-right mirrors."""
+    if len(models) == 1 and not mirror:
         return models[0](inputs)
-    total = torch.softmax(models[0](inputs), dim=1)
-    for member in models[1:]:
-        total += torch.softmax(member(inputs), dim=1)
-    return total / len(models)
+    total = torch.zeros((), device=inputs.device)
+    for member in models:
+        total = total + torch.softmax(member(inputs), dim=1)
+        if mirror:
+            total = total + torch.softmax(member(inputs.flip(3)), dim=1).flip(3)
+    return total / (len(models) * (2 if mirror else 1))
 
 
 def class_argmax(logits: torch.Tensor) -> torch.Tensor:

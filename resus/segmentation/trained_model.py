@@ -5,7 +5,9 @@ writes it) to labels: the network, its input size and its device travel together
 need not know the preset the model was trained with. `load_ensemble(paths)` makes several
 checkpoints one model (a deep ensemble): under a domain shift, such as simulated training
 images against real ones, separately trained networks err differently, and their mean class
-probabilities err less than any one of them.
+probabilities err less than any one of them. A model that learnt with horizontal flips also
+labels each image mirrored and averages the two (`Segmenter.mirror`,
+`resus.segmentation.inference`).
 """
 
 from __future__ import annotations
@@ -27,11 +29,14 @@ from resus.segmentation.presets import ModelConfig, TrainingPreset
 
 class Segmenter:
     """What labels images: its networks (one, or an ensemble's), their input size, the
-    images per forward pass, and the checkpoints they came from."""
+    images per forward pass, whether it also labels their mirrors, and the checkpoints they
+    came from."""
 
     networks: tuple[nn.Module, ...]
     image_size: int
     batch_size: int
+    mirror: bool
+    """Average each image's labelling with its left-right mirror's (test-time flips)."""
     checkpoints: tuple[Path, ...]
 
     @property
@@ -64,6 +69,7 @@ class Segmenter:
                 image_size=self.image_size,
                 batch_size=self.batch_size,
                 progress=progress,
+                mirror=self.mirror,
             )
         by_shape: dict[tuple[int, ...], list[int]] = {}
         for index, image in enumerate(images):
@@ -85,7 +91,15 @@ class Segmenter:
 class TrainedModel(Segmenter):
     """A U-Net in eval mode with the config it was saved with."""
 
-    def __init__(self, network: nn.Module, config: dict, path: Path | None = None) -> None:
+    def __init__(
+        self,
+        network: nn.Module,
+        config: dict,
+        path: Path | None = None,
+        mirror: bool | None = None,
+    ) -> None:
+        """`mirror` None: mirror when the network learnt with horizontal flips
+        (`learnt_mirrors`)."""
         self.network = network.eval()
         self.networks = (self.network,)
         self.config = config
@@ -101,14 +115,26 @@ class TrainedModel(Segmenter):
             )
         )
         """Images per forward pass (the training preset's evaluation batch size)."""
+        self.mirror = learnt_mirrors(config) if mirror is None else mirror
 
 
-def load_model(path: Path, device: str | torch.device | None = "auto") -> TrainedModel:
+def learnt_mirrors(config: dict) -> bool:
+    """Whether a checkpoint's network trained with horizontal flips (its config's `augment`
+    and its preset's `horizontal_flip_p`), so that an image's mirror is as much its domain as
+    the image."""
+    flip_p = config.get("preset", {}).get("augmentation", {}).get("horizontal_flip_p", 0.0)
+    return bool(config.get("augment", False)) and float(flip_p) > 0
+
+
+def load_model(
+    path: Path, device: str | torch.device | None = "auto", mirror: bool | None = None
+) -> TrainedModel:
     """The model saved at `path` (a `resus.segmentation-checkpoint/1` file) on `device`
-    ("auto": CUDA when present, else the CPU)."""
+    ("auto": CUDA when present, else the CPU). `mirror` None: as the network learnt
+    (`learnt_mirrors`)."""
     torch_device = device if isinstance(device, torch.device) else resolve_device(device)
     network, config = load_checkpoint(Path(path), torch_device)
-    return TrainedModel(network, config, Path(path))
+    return TrainedModel(network, config, Path(path), mirror)
 
 
 class ModelEnsemble(Segmenter):
@@ -125,12 +151,13 @@ class ModelEnsemble(Segmenter):
         self.networks = tuple(member.network for member in members)
         self.image_size = sizes[0]
         self.batch_size = min(member.batch_size for member in members)
+        self.mirror = all(member.mirror for member in members)
         self.checkpoints = tuple(path for member in members for path in member.checkpoints)
 
 
 def load_ensemble(
-    paths: Sequence[Path], device: str | torch.device | None = "auto"
+    paths: Sequence[Path], device: str | torch.device | None = "auto", mirror: bool | None = None
 ) -> ModelEnsemble:
     """The models saved at `paths` as one ensemble on `device` (as `load_model`)."""
     torch_device = device if isinstance(device, torch.device) else resolve_device(device)
-    return ModelEnsemble([load_model(path, torch_device) for path in paths])
+    return ModelEnsemble([load_model(path, torch_device, mirror) for path in paths])

@@ -220,9 +220,8 @@ def surface_mesh(
 
 
 def segment_frames(frames: np.ndarray, checkpoint: Path, progress: bool = True) -> np.ndarray:
-    """Label images for every frame from a segmentation checkpoint (`resus train`'s output)."""
-    from resus.segmentation.checkpoint import load_checkpoint
-    from resus.segmentation.inference import predict
+    """Label images for every frame from a segmentation checkpoint (`resus train`'s output),
+    as `resus.segmentation.load_model` labels them (mirrored too when it learnt flips)."""
+    from resus.segmentation.trained_model import load_model
 
-    model, config = load_checkpoint(checkpoint)
-    return predict(model, frames, image_size=int(config["model"]["image_size"]), progress=progress)
+    return load_model(checkpoint).predict(np.asarray(frames), progress=progress)

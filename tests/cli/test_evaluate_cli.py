@@ -64,6 +64,7 @@ def test_evaluate_scores_a_folder_and_writes_metrics_and_overlays(data, monkeypa
     assert metrics["schema"] == "resus.evaluation/3" and metrics["classes"] == ["vessel"]
     assert metrics["pooled"]["vessel"]["iou"] == pytest.approx(vessel / pixels)
     assert metrics["both_empty"] == {"vessel": 0}  # the model finds vessel everywhere
+    assert metrics["mirror"] is False  # the tiny model never trained with flips
     assert [row["name"] for row in metrics["per_image"]] == list(SAMPLES)
     for name, (_, (rows, columns), band) in SAMPLES.items():
         row = next(r for r in metrics["per_image"] if r["name"] == name)["vessel"]
@@ -76,11 +77,12 @@ def test_a_repeated_model_flag_scores_the_checkpoints_as_one_ensemble(data, monk
     tiny_checkpoint(data / "a.pt", logits=(0.0, 2.0, 0.0))  # artery, softmax 0.787
     tiny_checkpoint(data / "b.pt", logits=(3.0, 0.0, 0.0))  # background, softmax 0.909
     arguments = ["--model", data / "a.pt", "--model", data / "b.pt", "--images", data / "images"]
-    arguments += ["--masks", data / "masks", "--out", data / "e", "--device", "cpu"]
+    arguments += ["--masks", data / "masks", "--out", data / "e", "--device", "cpu", "--mirror"]
     status, _, stderr = run_main(monkeypatch, capsys, "evaluate", *arguments)
     assert status == 0, stderr
     metrics = json.loads((data / "e" / "metrics.json").read_text())
     assert metrics["checkpoints"] == [str(data / "a.pt"), str(data / "b.pt")]
+    assert metrics["mirror"] is True  # as --mirror asks
     # mean softmax: background 0.507, artery 0.416: no vessel anywhere
     assert metrics["pooled"]["vessel"]["intersection"] == 0
     assert metrics["both_empty"] == {"vessel": 1}  # 0001 shows none and gets none

@@ -8,9 +8,11 @@ import pytest
 import torch
 from PIL import Image
 from tiny_models import tiny_checkpoint
+from torch import nn
 
 from resus.errors import ResusError
 from resus.segmentation import load_ensemble, load_model
+from resus.segmentation.checkpoint import save_checkpoint
 from resus.segmentation.evaluate import (
     TRUTH_COLOUR,
     evaluate_folder,
@@ -18,7 +20,7 @@ from resus.segmentation.evaluate import (
     score_labels,
 )
 from resus.segmentation.folders import read_folders
-from resus.segmentation.inference import predict
+from resus.segmentation.inference import class_scores, predict
 from resus.segmentation.presets import QUICK
 from sim.labels import ARTERY, VEIN, label_colour
 
@@ -143,6 +145,46 @@ def test_an_ensemble_labels_by_its_members_mean_class_probabilities(tmp_path) ->
     tiny_checkpoint(tmp_path / "wide.pt", size=96)
     with pytest.raises(ResusError, match=r"must share one input size, got sizes \[64, 96\]"):
         load_ensemble([tmp_path / "a.pt", tmp_path / "wide.pt"], "cpu")
+
+
+def test_mirror_averages_the_probabilities_of_an_image_and_its_mirror_flipped_back() -> None:
+    torch.manual_seed(0)
+    members = [nn.Conv2d(1, 3, 5, padding=2).eval() for _ in range(2)]  # random kernels: not
+    inputs = torch.rand(2, 1, 16, 20)  # mirror-symmetric, so an image and its mirror differ
+
+    def probabilities(member: nn.Module, x: torch.Tensor) -> torch.Tensor:
+        return torch.softmax(member(x), dim=1)
+
+    one = (
+        probabilities(members[0], inputs) + probabilities(members[0], inputs.flip(3)).flip(3)
+    ) / 2
+    assert torch.allclose(class_scores(members[:1], inputs, mirror=True), one, atol=1e-6)
+    assert not torch.allclose(one, probabilities(members[0], inputs), atol=1e-3)
+    both = sum(probabilities(m, inputs) + probabilities(m, inputs.flip(3)).flip(3) for m in members)
+    assert torch.allclose(class_scores(members, inputs, mirror=True), both / 4, atol=1e-6)
+    # so a mirrored image gets the mirrored labels, bit for bit
+    images = np.random.default_rng(2).integers(0, 256, (3, 16, 16), dtype=np.uint8)
+    labels = predict(members[0], images, image_size=16, mirror=True)
+    mirrored = predict(members[0], images[:, :, ::-1].copy(), image_size=16, mirror=True)
+    np.testing.assert_array_equal(mirrored, labels[:, :, ::-1])
+    assert not np.array_equal(labels, predict(members[0], images, image_size=16))
+
+
+def test_a_model_mirrors_when_it_learnt_with_horizontal_flips(tmp_path) -> None:
+    network = tiny_checkpoint(tmp_path / "plain.pt")
+    for name, augment, flip_p in (("flips", True, 0.5), ("upright", True, 0.0), ("us", False, 0.5)):
+        config = {"model": QUICK.model.to_dict(), "augment": augment}
+        config["preset"] = {"augmentation": {"horizontal_flip_p": flip_p}}
+        save_checkpoint(tmp_path / f"{name}.pt", network, config)
+    assert load_model(tmp_path / "flips.pt", "cpu").mirror
+    assert not load_model(tmp_path / "upright.pt", "cpu").mirror
+    assert not load_model(tmp_path / "us.pt", "cpu").mirror
+    assert not load_model(tmp_path / "plain.pt", "cpu").mirror  # no training record at all
+    assert load_model(tmp_path / "plain.pt", "cpu", mirror=True).mirror
+    assert not load_model(tmp_path / "flips.pt", "cpu", mirror=False).mirror
+    paths = [tmp_path / "flips.pt", tmp_path / "us.pt"]
+    assert not load_ensemble(paths, "cpu").mirror  # only when every member learnt both sides
+    assert load_ensemble(paths[:1] * 2, "cpu").mirror
 
 
 def test_overlay_tints_the_prediction_and_outlines_the_truth() -> None:
