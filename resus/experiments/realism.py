@@ -37,6 +37,15 @@ and its centre's depth are shares of the imaged area and height, so that 256 px 
 512 px exports compare alike. A vein pressed flat shows as a region over `ELONGATED_ASPECT`
 times longer than wide: common in simulation at a heavy probe force, rare in real scans made
 with the light touch of a vascular examination.
+
+Vessel walls. A wall echoes brightly where the beam meets it square (above and below the
+lumen: a specular reflection) and hardly at all beside it, where the beam grazes it; a wall
+drawn as a bright ring all round is a cue no real image offers. For each vessel region, the
+mean grey of a band just outside the lumen (`RealismSettings.wall_band` of the imaged height
+wide, other vessels left out) over that of the ring two to four band widths out, beside the
+lumen (where the wall's normal, the direction from the nearest lumen pixel, lies within 30
+degrees of the rows) and above and below it (within 30 degrees of the columns, the beam): 1
+where the wall is no brighter than the tissue beyond it.
 """
 
 from __future__ import annotations
@@ -85,6 +94,11 @@ HISTOGRAMS_PNG = "histograms.png"
 OUTLINE_COLOUR = "yellow"
 """Vessel outline in the figures (the real masks do not tell artery from vein)."""
 SET_COLOURS = {"simulated": "tab:orange", "real": "tab:blue"}
+WALL_SECTOR = math.pi / 6
+"""Largest angle of a wall's normal from the rows (beside a lumen) or from the columns
+(above or below it) in the wall figures."""
+WALL_MIN_PIXELS = 10
+"""Fewest pixels a wall band or its reference ring needs in a sector to give a figure."""
 ELONGATED_ASPECT = 3.0
 """A vessel region longer than this many times its width counts as flattened."""
 PIXEL_SECOND_MOMENT = 1.0 / 12.0
@@ -122,6 +136,10 @@ class RealismSettings:
     """Smallest vessel region in the shape figures, as a share of its image's imaged area:
     0.05 % is a lumen 1.3 mm across in a 5 cm square image, smaller than any femoral vessel
     or great saphenous vein, larger than a label's stray corner at the image's edge."""
+    wall_band: float = 0.015
+    """Width of the band outside a lumen whose grey is its wall's, as a share of the imaged
+    height (0.6 mm of a 4 cm image: a femoral wall and its blur); the reference ring lies two
+    to four such widths out."""
 
     def __post_init__(self) -> None:
         for name in ("patch", "grain_patch"):
@@ -144,6 +162,10 @@ class RealismSettings:
         if not 0 <= self.min_vessel_area < 1:
             raise ResusError(
                 f"RealismSettings.min_vessel_area must be in [0, 1), got {self.min_vessel_area}"
+            )
+        if not 0 < self.wall_band < 0.25:
+            raise ResusError(
+                f"RealismSettings.wall_band must be in (0, 0.25), got {self.wall_band}"
             )
 
 
@@ -225,6 +247,11 @@ class VesselShapeStats:
     (0: the face, 1: the bottom)."""
     aspects: tuple[float, ...]
     """Every region's aspect, for the figure's distribution."""
+    wall_lateral_quantiles: tuple[float, ...] | None
+    """Quantiles `QUANTILES` of the regions' wall grey over the tissue's beyond it, beside the
+    lumen (module docstring; None when no region has enough pixels there)."""
+    wall_axial_quantiles: tuple[float, ...] | None
+    """The same above and below the lumen."""
 
 
 @dataclass(frozen=True)
@@ -285,6 +312,17 @@ def _shapes(
     return lambda stats: None if stats.vessel_shapes is None else get(stats.vessel_shapes)
 
 
+def _walls(side: str, quantile: int) -> Callable[[RealismStats], float | None]:
+    """A table row's getter of one quantile of the wall contrasts on one `side` ("lateral"
+    or "axial")."""
+
+    def get(shapes: VesselShapeStats) -> float | None:
+        quantiles = getattr(shapes, f"wall_{side}_quantiles")
+        return None if quantiles is None else quantiles[quantile]
+
+    return _shapes(get)
+
+
 def _falloffs(quantile: int) -> Callable[[RealismStats], float | None]:
     """A table row's getter of one quantile of the per-image depth falloff."""
     return lambda s: (
@@ -328,6 +366,9 @@ TABLE: tuple[TableRow, ...] = (
     ),
     ("vessel area, median (% of image)", _shapes(lambda s: 100 * s.area_quantiles[MEDIAN]), 2),
     ("vessel centre depth, median (share)", _shapes(lambda s: s.depth_quantiles[MEDIAN]), 3),
+    ("wall / tissue beyond, beside the lumen, median", _walls("lateral", MEDIAN), 2),
+    ("wall / tissue beyond, above and below, median", _walls("axial", MEDIAN), 2),
+    ("wall / tissue beyond, above and below, 90th percentile", _walls("axial", NINETIETH), 2),
 )
 """The comparison's rows: label, the figure of a set, decimals shown. The first five are the
 issue's table; speckle rows are None for a set without tissue windows."""
@@ -484,6 +525,8 @@ class _Accumulator:
         self.grain_patches = 0
         self.regions: list[tuple[float, float, float]] = []
         """(aspect, area share, depth share) of each vessel region."""
+        self.walls: list[tuple[float | None, float | None]] = []
+        """(lateral, axial) wall contrast of each vessel region."""
         self.showing = 0
 
     def add(self, image: np.ndarray, vessel: np.ndarray) -> None:
@@ -518,6 +561,9 @@ class _Accumulator:
             self.grain_patches += len(grains)
         regions = vessel_regions(vessel, self.settings.min_vessel_area)
         self.regions.extend(regions)
+        self.walls.extend(
+            wall_contrasts(image, vessel, self.settings.min_vessel_area, self.settings.wall_band)
+        )
         self.showing += bool(regions)
 
     def depth_profile(self) -> tuple[float | None, ...]:
@@ -557,6 +603,8 @@ class _Accumulator:
             area_quantiles=_quantiles(areas),
             depth_quantiles=_quantiles(depths),
             aspects=tuple(float(a) for a in aspects),
+            wall_lateral_quantiles=_present_quantiles([lateral for lateral, _ in self.walls]),
+            wall_axial_quantiles=_present_quantiles([axial for _, axial in self.walls]),
         )
 
     def _grain(self) -> tuple[float | None, float | None]:
@@ -588,9 +636,11 @@ def depth_falloff(profile: Sequence[float | None]) -> float | None:
     return deepest / second if second and deepest is not None else None
 
 
-def vessel_regions(vessel: np.ndarray, min_area: float) -> list[tuple[float, float, float]]:
-    """(aspect, area share, centre depth share) of each 8-connected region of the imaged
-    area's vessel mask `vessel` that covers at least `min_area` of it (module docstring)."""
+def _regions(
+    vessel: np.ndarray, min_area: float
+) -> list[tuple[tuple[slice, slice], np.ndarray, np.ndarray]]:
+    """(bounding box, rows, columns within it) of each 8-connected region of the imaged
+    area's vessel mask `vessel` that covers at least `min_area` of it."""
     from scipy import ndimage
 
     if not vessel.any():
@@ -600,8 +650,16 @@ def vessel_regions(vessel: np.ndarray, min_area: float) -> list[tuple[float, flo
     for label, region in enumerate(ndimage.find_objects(labelled), start=1):
         assert region is not None  # the labels run from 1 without gaps
         rows, cols = np.nonzero(labelled[region] == label)
-        if rows.size < max(1.0, min_area * vessel.size):
-            continue
+        if rows.size >= max(1.0, min_area * vessel.size):
+            found.append((region, rows, cols))
+    return found
+
+
+def vessel_regions(vessel: np.ndarray, min_area: float) -> list[tuple[float, float, float]]:
+    """(aspect, area share, centre depth share) of each 8-connected region of the imaged
+    area's vessel mask `vessel` that covers at least `min_area` of it (module docstring)."""
+    found = []
+    for region, rows, cols in _regions(vessel, min_area):
         points = np.stack([rows, cols]).astype(np.float64)
         covariance = np.cov(points, bias=True) + PIXEL_SECOND_MOMENT * np.eye(2)
         smallest, largest = np.linalg.eigvalsh(covariance)
@@ -614,6 +672,54 @@ def vessel_regions(vessel: np.ndarray, min_area: float) -> list[tuple[float, flo
             )
         )
     return found
+
+
+def wall_contrasts(
+    image: np.ndarray, vessel: np.ndarray, min_area: float, band: float
+) -> list[tuple[float | None, float | None]]:
+    """(beside, above and below) wall contrast of each vessel region of the imaged area
+    `image` (module docstring): the mean grey at most `band` of the imaged height outside the
+    lumen over that 2-4 such widths out, each pixel beside the lumen or above or below it by
+    the direction from the nearest lumen pixel (the wall's normal), within `WALL_SECTOR` of
+    the rows or of the columns; None where a band has fewer than `WALL_MIN_PIXELS` there."""
+    from scipy import ndimage
+
+    width = max(1.0, band * vessel.shape[0])
+    reach = math.ceil(4 * width) + 1
+    found = []
+    for region, rows, cols in _regions(vessel, min_area):
+        top, left = max(0, region[0].start - reach), max(0, region[1].start - reach)
+        window = (
+            slice(top, min(vessel.shape[0], region[0].stop + reach)),
+            slice(left, min(vessel.shape[1], region[1].stop + reach)),
+        )
+        rows, cols = rows + region[0].start - top, cols + region[1].start - left
+        lumen = np.zeros(vessel[window].shape, bool)
+        lumen[rows, cols] = True
+        distance, (nearest_row, nearest_col) = ndimage.distance_transform_edt(
+            ~lumen, return_indices=True
+        )
+        outside = ~vessel[window]
+        near = outside & (distance <= width)
+        far = outside & (distance > 2 * width) & (distance <= 4 * width)
+        row, col = np.indices(lumen.shape)
+        # the wall's normal, from the nearest lumen pixel: 0 beside the lumen, pi / 2 above
+        # or below it (along the beam)
+        angle = np.arctan2(np.abs(row - nearest_row), np.abs(col - nearest_col))
+        grey = image[window].astype(np.float64)
+        contrasts: list[float | None] = []
+        for sector in (angle <= WALL_SECTOR, angle >= math.pi / 2 - WALL_SECTOR):
+            wall, beyond = grey[near & sector], grey[far & sector]
+            enough = min(wall.size, beyond.size) >= WALL_MIN_PIXELS and beyond.mean() > 0
+            contrasts.append(float(wall.mean() / beyond.mean()) if enough else None)
+        found.append((contrasts[0], contrasts[1]))
+    return found
+
+
+def _present_quantiles(values: Sequence[float | None]) -> tuple[float, ...] | None:
+    """`_quantiles` of the values that are not None (None when none is)."""
+    present = np.array([value for value in values if value is not None])
+    return _quantiles(present) if present.size else None
 
 
 def _quantiles(values: np.ndarray) -> tuple[float, ...]:

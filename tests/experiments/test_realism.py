@@ -26,6 +26,7 @@ from resus.experiments.realism import (
     read_image_folder,
     read_sweep_set,
     vessel_regions,
+    wall_contrasts,
 )
 from resus.sweep.io import write_sweep
 from sim.labels import ARTERY, VEIN
@@ -268,6 +269,31 @@ def test_vessel_shapes_count_regions_above_the_least_area_over_the_imaged_area()
     assert measure(one_image(second)).vessel_shapes is None
 
 
+def test_wall_contrast_is_the_band_outside_the_lumen_over_the_ring_beyond_it_by_side() -> None:
+    """Tissue at grey 50, a 40 x 60 lumen at 10, and a wall at 100 only above and below it
+    (3 px, the band: 0.015 of 200 rows): beside the lumen the band is tissue (1.0), above and
+    below it the wall (2.0, less the four corner pixels whose normal is steep)."""
+    shape = (200, 220)
+    image = np.full(shape, 50, np.uint8)
+    lumen = np.zeros(shape, bool)
+    lumen[80:120, 80:140] = True
+    image[lumen] = 10
+    image[77:80, 80:140] = image[120:123, 80:140] = 100
+    ((beside, above_below),) = wall_contrasts(image, lumen, 0.0, band=0.015)
+    assert beside == 1.0 and above_below == pytest.approx((360 * 100 + 4 * 50) / 364 / 50)
+    # a wall drawn all round reads bright beside the lumen too
+    image[~lumen & (ndimage.distance_transform_edt(~lumen) <= 3)] = 100
+    ((beside, _),) = wall_contrasts(image, lumen, 0.0, band=0.015)
+    assert beside == 2.0
+    shapes = measure(one_image(image, lumen)).vessel_shapes
+    assert shapes is not None and shapes.wall_lateral_quantiles == (2.0,) * len(QUANTILES)
+    # a lumen across the whole image has nothing beside it: no figure there, not a guess
+    across = np.zeros(shape, bool)
+    across[90:110] = True
+    plain = np.full(shape, 50, np.uint8)
+    assert wall_contrasts(plain, across, 0.0, band=0.015) == [(None, 1.0)]
+
+
 def test_settings_are_checked() -> None:
     with pytest.raises(ResusError, match=r"RealismSettings\.patch"):
         RealismSettings(patch=7)
@@ -277,6 +303,8 @@ def test_settings_are_checked() -> None:
         RealismSettings(homogeneity=-1)
     with pytest.raises(ResusError, match=r"RealismSettings\.min_vessel_area"):
         RealismSettings(min_vessel_area=1)
+    with pytest.raises(ResusError, match=r"RealismSettings\.wall_band must be in \(0, 0\.25\)"):
+        RealismSettings(wall_band=0)
 
 
 def test_comparison_table_starts_with_the_issue_figures() -> None:
