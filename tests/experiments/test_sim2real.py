@@ -287,8 +287,9 @@ def test_an_ensemble_is_its_members_runs_and_scores_by_their_mean_probabilities(
     record = json.loads((out / "sim_only" / "member_1" / "unit.json").read_text())
     assert record["key"]["seed"] == 4 and "ensemble" not in record["key"]["settings"]
 
-    # each member scored alone, and the ensemble by the arg-max of their mean softmax,
-    # computed here with torch directly
+    # each member scored alone, and the ensemble by the arg-max of their mean softmax over
+    # each image and its left-right mirror (the members trained with flips), computed here
+    # with torch directly
     for member, scored in zip(members, sim_only["members"], strict=True):
         alone = scored["pooled"]["vessel"]
         assert (alone["intersection"], alone["union"]) == vessel_counts(member, real)
@@ -296,7 +297,15 @@ def test_an_ensemble_is_its_members_runs_and_scores_by_their_mean_probabilities(
     with torch.no_grad():
         for image, truth in zip(real.images, real.labels, strict=True):
             inputs = images_to_tensor(resize_images(image[None], members[0].image_size))
-            mean = sum(torch.softmax(m.network(inputs), 1) for m in members) / 2
+            assert all(m.mirror for m in members)
+            mean = (
+                sum(
+                    torch.softmax(m.network(inputs), 1)
+                    + torch.softmax(m.network(inputs.flip(3)), 1).flip(3)
+                    for m in members
+                )
+                / 4
+            )
             mean = torch.nn.functional.interpolate(mean, size=image.shape, mode="bilinear")
             vessel, true = mean[0].argmax(0).numpy() > 0, truth > 0
             intersection += int((vessel & true).sum())
