@@ -559,10 +559,10 @@ class _Accumulator:
             correlations = np.fft.irfft2(np.abs(spectrum) ** 2, s=self.correlation.shape)
             self.correlation += (correlations / correlations[:, :1, :1]).sum(axis=0)
             self.grain_patches += len(grains)
-        regions = vessel_regions(vessel, self.settings.min_vessel_area)
-        self.regions.extend(regions)
+        regions = _regions(vessel, self.settings.min_vessel_area)  # labelled once for both
+        self.regions.extend(_region_shape(vessel, region) for region in regions)
         self.walls.extend(
-            wall_contrasts(image, vessel, self.settings.min_vessel_area, self.settings.wall_band)
+            _region_walls(image, vessel, region, self.settings.wall_band) for region in regions
         )
         self.showing += bool(regions)
 
@@ -636,9 +636,11 @@ def depth_falloff(profile: Sequence[float | None]) -> float | None:
     return deepest / second if second and deepest is not None else None
 
 
-def _regions(
-    vessel: np.ndarray, min_area: float
-) -> list[tuple[tuple[slice, slice], np.ndarray, np.ndarray]]:
+Region = tuple[tuple[slice, slice], np.ndarray, np.ndarray]
+"""A vessel region: its bounding box, and its pixels' rows and columns within it."""
+
+
+def _regions(vessel: np.ndarray, min_area: float) -> list[Region]:
     """(bounding box, rows, columns within it) of each 8-connected region of the imaged
     area's vessel mask `vessel` that covers at least `min_area` of it."""
     from scipy import ndimage
@@ -658,20 +660,17 @@ def _regions(
 def vessel_regions(vessel: np.ndarray, min_area: float) -> list[tuple[float, float, float]]:
     """(aspect, area share, centre depth share) of each 8-connected region of the imaged
     area's vessel mask `vessel` that covers at least `min_area` of it (module docstring)."""
-    found = []
-    for region, rows, cols in _regions(vessel, min_area):
-        points = np.stack([rows, cols]).astype(np.float64)
-        covariance = np.cov(points, bias=True) + PIXEL_SECOND_MOMENT * np.eye(2)
-        smallest, largest = np.linalg.eigvalsh(covariance)
-        centre_row = region[0].start + rows.mean() + 0.5  # pixel centres lie at row + 0.5
-        found.append(
-            (
-                math.sqrt(largest / smallest),
-                rows.size / vessel.size,
-                centre_row / vessel.shape[0],
-            )
-        )
-    return found
+    return [_region_shape(vessel, region) for region in _regions(vessel, min_area)]
+
+
+def _region_shape(vessel: np.ndarray, region: Region) -> tuple[float, float, float]:
+    """(aspect, area share, centre depth share) of one region of `vessel`."""
+    box, rows, cols = region
+    points = np.stack([rows, cols]).astype(np.float64)
+    covariance = np.cov(points, bias=True) + PIXEL_SECOND_MOMENT * np.eye(2)
+    smallest, largest = np.linalg.eigvalsh(covariance)
+    centre_row = box[0].start + rows.mean() + 0.5  # pixel centres lie at row + 0.5
+    return math.sqrt(largest / smallest), rows.size / vessel.size, centre_row / vessel.shape[0]
 
 
 def wall_contrasts(
@@ -682,38 +681,42 @@ def wall_contrasts(
     lumen over that 2-4 such widths out, each pixel beside the lumen or above or below it by
     the direction from the nearest lumen pixel (the wall's normal), within `WALL_SECTOR` of
     the rows or of the columns; None where a band has fewer than `WALL_MIN_PIXELS` there."""
+    return [_region_walls(image, vessel, region, band) for region in _regions(vessel, min_area)]
+
+
+def _region_walls(
+    image: np.ndarray, vessel: np.ndarray, region: Region, band: float
+) -> tuple[float | None, float | None]:
+    """(beside, above and below) wall contrast of one region of `vessel` (`wall_contrasts`)."""
     from scipy import ndimage
 
+    box, rows, cols = region
     width = max(1.0, band * vessel.shape[0])
     reach = math.ceil(4 * width) + 1
-    found = []
-    for region, rows, cols in _regions(vessel, min_area):
-        top, left = max(0, region[0].start - reach), max(0, region[1].start - reach)
-        window = (
-            slice(top, min(vessel.shape[0], region[0].stop + reach)),
-            slice(left, min(vessel.shape[1], region[1].stop + reach)),
-        )
-        rows, cols = rows + region[0].start - top, cols + region[1].start - left
-        lumen = np.zeros(vessel[window].shape, bool)
-        lumen[rows, cols] = True
-        distance, (nearest_row, nearest_col) = ndimage.distance_transform_edt(
-            ~lumen, return_indices=True
-        )
-        outside = ~vessel[window]
-        near = outside & (distance <= width)
-        far = outside & (distance > 2 * width) & (distance <= 4 * width)
-        row, col = np.indices(lumen.shape)
-        # the wall's normal, from the nearest lumen pixel: 0 beside the lumen, pi / 2 above
-        # or below it (along the beam)
-        angle = np.arctan2(np.abs(row - nearest_row), np.abs(col - nearest_col))
-        grey = image[window].astype(np.float64)
-        contrasts: list[float | None] = []
-        for sector in (angle <= WALL_SECTOR, angle >= math.pi / 2 - WALL_SECTOR):
-            wall, beyond = grey[near & sector], grey[far & sector]
-            enough = min(wall.size, beyond.size) >= WALL_MIN_PIXELS and beyond.mean() > 0
-            contrasts.append(float(wall.mean() / beyond.mean()) if enough else None)
-        found.append((contrasts[0], contrasts[1]))
-    return found
+    top, left = max(0, box[0].start - reach), max(0, box[1].start - reach)
+    window = (
+        slice(top, min(vessel.shape[0], box[0].stop + reach)),
+        slice(left, min(vessel.shape[1], box[1].stop + reach)),
+    )
+    lumen = np.zeros(vessel[window].shape, bool)
+    lumen[rows + box[0].start - top, cols + box[1].start - left] = True
+    distance, (nearest_row, nearest_col) = ndimage.distance_transform_edt(
+        ~lumen, return_indices=True
+    )
+    outside = ~vessel[window]
+    near = outside & (distance <= width)
+    far = outside & (distance > 2 * width) & (distance <= 4 * width)
+    row, col = np.indices(lumen.shape)
+    # the wall's normal, from the nearest lumen pixel: 0 beside the lumen, pi / 2 above or
+    # below it (along the beam)
+    angle = np.arctan2(np.abs(row - nearest_row), np.abs(col - nearest_col))
+    grey = image[window].astype(np.float64)
+    contrasts: list[float | None] = []
+    for sector in (angle <= WALL_SECTOR, angle >= math.pi / 2 - WALL_SECTOR):
+        wall, beyond = grey[near & sector], grey[far & sector]
+        enough = min(wall.size, beyond.size) >= WALL_MIN_PIXELS and beyond.mean() > 0
+        contrasts.append(float(wall.mean() / beyond.mean()) if enough else None)
+    return contrasts[0], contrasts[1]
 
 
 def _present_quantiles(values: Sequence[float | None]) -> tuple[float, ...] | None:
