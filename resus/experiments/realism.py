@@ -46,6 +46,14 @@ wide, other vessels left out) over that of the ring two to four band widths out,
 lumen (where the wall's normal, the direction from the nearest lumen pixel, lies within 30
 degrees of the rows) and above and below it (within 30 degrees of the columns, the beam): 1
 where the wall is no brighter than the tissue beyond it.
+
+Vessel lumens. The pooled lumen/tissue ratio weighs every lumen pixel against all the tissue
+of the set, at every depth; what a reader (or a network) sees is each lumen against the tissue
+around it. So each vessel region also gets its lumen contrast: the mean grey of its interior
+(more than one wall band inside its edge, clear of the wall's blur) over that of the same ring
+two to four band widths out, all round. Real lumens are seldom black, and seldom nearly as
+bright as their surroundings; a simulator that fills them with too much haze teaches a network
+to call grey tissue vessel.
 """
 
 from __future__ import annotations
@@ -56,7 +64,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from itertools import pairwise
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -86,7 +94,7 @@ DEPTH_BANDS = 5
 """Equal bands of the imaged area's depth in the depth profile (fifths)."""
 QUANTILES = (0.1, 0.25, 0.5, 0.75, 0.9)
 """Which quantiles of the per-window grey SNR and of the vessel shapes are reported."""
-MEDIAN, NINETIETH = QUANTILES.index(0.5), QUANTILES.index(0.9)
+TENTH, MEDIAN, NINETIETH = (QUANTILES.index(q) for q in (0.1, 0.5, 0.9))
 REALISM_JSON = "realism.json"
 REALISM_MD = "realism.md"
 SIM_VS_REAL_PNG = "sim_vs_real.png"
@@ -97,8 +105,9 @@ SET_COLOURS = {"simulated": "tab:orange", "real": "tab:blue"}
 WALL_SECTOR = math.pi / 6
 """Largest angle of a wall's normal from the rows (beside a lumen) or from the columns
 (above or below it) in the wall figures."""
-WALL_MIN_PIXELS = 10
-"""Fewest pixels a wall band or its reference ring needs in a sector to give a figure."""
+MIN_CONTRAST_PIXELS = 10
+"""Fewest pixels a lumen's interior, a wall band (in a sector) or its reference ring needs to
+give a figure."""
 ELONGATED_ASPECT = 3.0
 """A vessel region longer than this many times its width counts as flattened."""
 PIXEL_SECOND_MOMENT = 1.0 / 12.0
@@ -252,6 +261,9 @@ class VesselShapeStats:
     lumen (module docstring; None when no region has enough pixels there)."""
     wall_axial_quantiles: tuple[float, ...] | None
     """The same above and below the lumen."""
+    lumen_quantiles: tuple[float, ...] | None
+    """Quantiles `QUANTILES` of the regions' lumen contrast: interior grey over the tissue's
+    around it (module docstring; None when no region has an interior that wide)."""
 
 
 @dataclass(frozen=True)
@@ -312,12 +324,12 @@ def _shapes(
     return lambda stats: None if stats.vessel_shapes is None else get(stats.vessel_shapes)
 
 
-def _walls(side: str, quantile: int) -> Callable[[RealismStats], float | None]:
-    """A table row's getter of one quantile of the wall contrasts on one `side` ("lateral"
-    or "axial")."""
+def _contrasts(figure: str, quantile: int) -> Callable[[RealismStats], float | None]:
+    """A table row's getter of one quantile of the regions' contrasts `figure` ("lumen",
+    "wall_lateral" or "wall_axial")."""
 
     def get(shapes: VesselShapeStats) -> float | None:
-        quantiles = getattr(shapes, f"wall_{side}_quantiles")
+        quantiles = getattr(shapes, f"{figure}_quantiles")
         return None if quantiles is None else quantiles[quantile]
 
     return _shapes(get)
@@ -366,9 +378,16 @@ TABLE: tuple[TableRow, ...] = (
     ),
     ("vessel area, median (% of image)", _shapes(lambda s: 100 * s.area_quantiles[MEDIAN]), 2),
     ("vessel centre depth, median (share)", _shapes(lambda s: s.depth_quantiles[MEDIAN]), 3),
-    ("wall / tissue beyond, beside the lumen, median", _walls("lateral", MEDIAN), 2),
-    ("wall / tissue beyond, above and below, median", _walls("axial", MEDIAN), 2),
-    ("wall / tissue beyond, above and below, 90th percentile", _walls("axial", NINETIETH), 2),
+    ("lumen / tissue around it, per vessel, 10th percentile", _contrasts("lumen", TENTH), 3),
+    ("lumen / tissue around it, per vessel, median", _contrasts("lumen", MEDIAN), 3),
+    ("lumen / tissue around it, per vessel, 90th percentile", _contrasts("lumen", NINETIETH), 3),
+    ("wall / tissue beyond, beside the lumen, median", _contrasts("wall_lateral", MEDIAN), 2),
+    ("wall / tissue beyond, above and below, median", _contrasts("wall_axial", MEDIAN), 2),
+    (
+        "wall / tissue beyond, above and below, 90th percentile",
+        _contrasts("wall_axial", NINETIETH),
+        2,
+    ),
 )
 """The comparison's rows: label, the figure of a set, decimals shown. The first five are the
 issue's table; speckle rows are None for a set without tissue windows."""
@@ -525,8 +544,8 @@ class _Accumulator:
         self.grain_patches = 0
         self.regions: list[tuple[float, float, float]] = []
         """(aspect, area share, depth share) of each vessel region."""
-        self.walls: list[tuple[float | None, float | None]] = []
-        """(lateral, axial) wall contrast of each vessel region."""
+        self.contrasts: list[VesselContrast] = []
+        """Lumen and wall contrasts of each vessel region."""
         self.showing = 0
 
     def add(self, image: np.ndarray, vessel: np.ndarray) -> None:
@@ -561,8 +580,8 @@ class _Accumulator:
             self.grain_patches += len(grains)
         regions = _regions(vessel, self.settings.min_vessel_area)  # labelled once for both
         self.regions.extend(_region_shape(vessel, region) for region in regions)
-        self.walls.extend(
-            _region_walls(image, vessel, region, self.settings.wall_band) for region in regions
+        self.contrasts.extend(
+            _region_contrasts(image, vessel, region, self.settings.wall_band) for region in regions
         )
         self.showing += bool(regions)
 
@@ -603,8 +622,9 @@ class _Accumulator:
             area_quantiles=_quantiles(areas),
             depth_quantiles=_quantiles(depths),
             aspects=tuple(float(a) for a in aspects),
-            wall_lateral_quantiles=_present_quantiles([lateral for lateral, _ in self.walls]),
-            wall_axial_quantiles=_present_quantiles([axial for _, axial in self.walls]),
+            wall_lateral_quantiles=_present_quantiles([c.beside for c in self.contrasts]),
+            wall_axial_quantiles=_present_quantiles([c.above_below for c in self.contrasts]),
+            lumen_quantiles=_present_quantiles([c.lumen for c in self.contrasts]),
         )
 
     def _grain(self) -> tuple[float | None, float | None]:
@@ -673,21 +693,34 @@ def _region_shape(vessel: np.ndarray, region: Region) -> tuple[float, float, flo
     return math.sqrt(largest / smallest), rows.size / vessel.size, centre_row / vessel.shape[0]
 
 
-def wall_contrasts(
+class VesselContrast(NamedTuple):
+    """One vessel region's contrasts (module docstring), each None where too few pixels
+    (`MIN_CONTRAST_PIXELS`) give it."""
+
+    lumen: float | None
+    """Interior grey over the tissue's around the lumen."""
+    beside: float | None
+    """Wall grey over the tissue's beyond it, beside the lumen."""
+    above_below: float | None
+    """The same above and below the lumen."""
+
+
+def vessel_contrasts(
     image: np.ndarray, vessel: np.ndarray, min_area: float, band: float
-) -> list[tuple[float | None, float | None]]:
-    """(beside, above and below) wall contrast of each vessel region of the imaged area
-    `image` (module docstring): the mean grey at most `band` of the imaged height outside the
-    lumen over that 2-4 such widths out, each pixel beside the lumen or above or below it by
-    the direction from the nearest lumen pixel (the wall's normal), within `WALL_SECTOR` of
-    the rows or of the columns; None where a band has fewer than `WALL_MIN_PIXELS` there."""
-    return [_region_walls(image, vessel, region, band) for region in _regions(vessel, min_area)]
+) -> list[VesselContrast]:
+    """The lumen and wall contrasts of each vessel region of the imaged area `image` (module
+    docstring): against the mean grey of the ring 2-4 `band`s of the imaged height outside the
+    lumen (other vessels left out), the lumen's pixels more than a band inside its edge, and
+    the wall's at most a band outside it, each wall pixel beside the lumen or above or below
+    it by the direction from the nearest lumen pixel (the wall's normal), within `WALL_SECTOR`
+    of the rows or of the columns."""
+    return [_region_contrasts(image, vessel, region, band) for region in _regions(vessel, min_area)]
 
 
-def _region_walls(
+def _region_contrasts(
     image: np.ndarray, vessel: np.ndarray, region: Region, band: float
-) -> tuple[float | None, float | None]:
-    """(beside, above and below) wall contrast of one region of `vessel` (`wall_contrasts`)."""
+) -> VesselContrast:
+    """The lumen and wall contrasts of one region of `vessel` (`vessel_contrasts`)."""
     from scipy import ndimage
 
     box, rows, cols = region
@@ -706,17 +739,25 @@ def _region_walls(
     outside = ~vessel[window]
     near = outside & (distance <= width)
     far = outside & (distance > 2 * width) & (distance <= 4 * width)
+    interior = ndimage.distance_transform_edt(lumen) > width
     row, col = np.indices(lumen.shape)
     # the wall's normal, from the nearest lumen pixel: 0 beside the lumen, pi / 2 above or
     # below it (along the beam)
     angle = np.arctan2(np.abs(row - nearest_row), np.abs(col - nearest_col))
     grey = image[window].astype(np.float64)
-    contrasts: list[float | None] = []
-    for sector in (angle <= WALL_SECTOR, angle >= math.pi / 2 - WALL_SECTOR):
-        wall, beyond = grey[near & sector], grey[far & sector]
-        enough = min(wall.size, beyond.size) >= WALL_MIN_PIXELS and beyond.mean() > 0
-        contrasts.append(float(wall.mean() / beyond.mean()) if enough else None)
-    return contrasts[0], contrasts[1]
+    beside, above_below = angle <= WALL_SECTOR, angle >= math.pi / 2 - WALL_SECTOR
+    return VesselContrast(
+        _mean_ratio(grey[interior], grey[far]),
+        _mean_ratio(grey[near & beside], grey[far & beside]),
+        _mean_ratio(grey[near & above_below], grey[far & above_below]),
+    )
+
+
+def _mean_ratio(part: np.ndarray, reference: np.ndarray) -> float | None:
+    """`part`'s mean grey over `reference`'s; None when either has fewer than
+    `MIN_CONTRAST_PIXELS` pixels or the reference is black."""
+    enough = min(part.size, reference.size) >= MIN_CONTRAST_PIXELS and reference.mean() > 0
+    return float(part.mean() / reference.mean()) if enough else None
 
 
 def _present_quantiles(values: Sequence[float | None]) -> tuple[float, ...] | None:
@@ -971,7 +1012,10 @@ def _report_lines(comparison: RealismComparison, sources: Mapping[str, object]) 
         f"{settings.grain_patch} px windows, in each set's own pixels. Vessel shapes: each "
         f"connected vessel region of at least {settings.min_vessel_area:.2%} of its image's "
         "imaged area; aspect = sqrt of its second moments' eigenvalue ratio (length over "
-        "width), area and centre depth as shares of the imaged area and height.",
+        "width), area and centre depth as shares of the imaged area and height. Per vessel: "
+        f"the lumen's interior (more than {settings.wall_band:.1%} of the imaged height inside "
+        "its edge) and the wall band (that wide, outside it; beside the lumen or above and "
+        "below it by the wall's normal) over the tissue two to four such bands out.",
         "",
         f"![simulated and real images]({SIM_VS_REAL_PNG})",
         f"![grey-level histograms]({HISTOGRAMS_PNG})",

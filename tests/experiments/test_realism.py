@@ -26,8 +26,8 @@ from resus.experiments.realism import (
     rayleigh_grey_std,
     read_image_folder,
     read_sweep_set,
+    vessel_contrasts,
     vessel_regions,
-    wall_contrasts,
 )
 from resus.sweep.io import write_sweep
 from sim.labels import ARTERY, VEIN
@@ -274,29 +274,39 @@ def test_vessel_shapes_count_regions_above_the_least_area_over_the_imaged_area()
     assert measure(one_image(second)).vessel_shapes is None
 
 
-def test_wall_contrast_is_the_band_outside_the_lumen_over_the_ring_beyond_it_by_side() -> None:
+def test_vessel_contrasts_are_the_lumen_and_the_wall_over_the_ring_beyond_them() -> None:
     """Tissue at grey 50, a 40 x 60 lumen at 10, and a wall at 100 only above and below it
-    (3 px, the band: 0.015 of 200 rows): beside the lumen the band is tissue (1.0), above and
-    below it the wall (2.0, less the four corner pixels whose normal is steep)."""
+    (3 px, the band: 0.015 of 200 rows): the lumen reads 0.2; beside the lumen the band is
+    tissue (1.0), above and below it the wall (2.0, less the four corner pixels whose normal is
+    steep)."""
     shape = (200, 220)
     image = np.full(shape, 50, np.uint8)
     lumen = np.zeros(shape, bool)
     lumen[80:120, 80:140] = True
     image[lumen] = 10
     image[77:80, 80:140] = image[120:123, 80:140] = 100
-    ((beside, above_below),) = wall_contrasts(image, lumen, 0.0, band=0.015)
-    assert beside == 1.0 and above_below == pytest.approx((360 * 100 + 4 * 50) / 364 / 50)
+    ((inside, beside, above_below),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
+    assert inside == pytest.approx(0.2) and beside == 1.0
+    assert above_below == pytest.approx((360 * 100 + 4 * 50) / 364 / 50)
     # a wall drawn all round reads bright beside the lumen too
     image[~lumen & (ndimage.distance_transform_edt(~lumen) <= 3)] = 100
-    ((beside, _),) = wall_contrasts(image, lumen, 0.0, band=0.015)
+    ((_, beside, _),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
     assert beside == 2.0
     shapes = measure(one_image(image, lumen)).vessel_shapes
     assert shapes is not None and shapes.wall_lateral_quantiles == (2.0,) * len(QUANTILES)
+    assert shapes.lumen_quantiles == pytest.approx((0.2,) * len(QUANTILES))
+    # only the interior counts: a lumen whose edge is bright still reads by its middle
+    image[lumen & (ndimage.distance_transform_edt(lumen) <= 3)] = 50
+    assert vessel_contrasts(image, lumen, 0.0, band=0.015)[0].lumen == pytest.approx(0.2)
     # a lumen across the whole image has nothing beside it: no figure there, not a guess
     across = np.zeros(shape, bool)
     across[90:110] = True
     plain = np.full(shape, 50, np.uint8)
-    assert wall_contrasts(plain, across, 0.0, band=0.015) == [(None, 1.0)]
+    assert vessel_contrasts(plain, across, 0.0, band=0.015) == [(1.0, None, 1.0)]
+    # a lumen too thin for an interior gives no lumen figure
+    thin = np.zeros(shape, bool)
+    thin[100:104, 60:160] = True
+    assert vessel_contrasts(plain, thin, 0.0, band=0.015)[0].lumen is None
 
 
 def test_a_wall_that_scatters_like_tissue_shows_above_and_below_the_lumen_not_beside_it() -> None:
@@ -318,7 +328,7 @@ def test_a_wall_that_scatters_like_tissue_shows_above_and_below_the_lumen_not_be
             simulator = UltrasoundSimulator(phantom, vascular.probe(), vascular.settings())
             pose = probe_pose_on_skin(phantom, spec.anatomy.centre_offset, -0.03)
             image, labels = simulator.render(pose)
-            for side, axial in wall_contrasts(image, labels > 0, 0.0005, 0.015):
+            for _, side, axial in vessel_contrasts(image, labels > 0, 0.0005, 0.015):
                 beside += [] if side is None else [side]
                 above_below += [] if axial is None else [axial]
         return float(np.median(beside)), float(np.median(above_below))
