@@ -22,10 +22,13 @@ pytestmark = [pytest.mark.slow, pytest.mark.hang_guard]
 
 
 PROBE = LinearProbe(cols=96, rows=96)
-TCP_ACCELERATION = 1.0
+TCP_ACCELERATION = 2.0
 """Bound on the TCP's acceleration during the sweep (m/s^2): the plan ramps at 0.05 m/s^2,
 and the servo's smoothing of a stream that arrives late and force control of the contact
-add a few tenths (measured between consecutive packets: at most 0.35 m/s^2)."""
+add more (measured between consecutive packets: at most 0.35 m/s^2 on an idle machine; a full
+suite run at `-n 2` on 2 cores implied 1.09 m/s^2 over one 8 ms gap, 2026-12-05, when the bound
+was 1.0). At 2.0 a pose stamped one 2 ms packet off (20 um at the sweep's 10 mm/s) still fails
+wherever the watcher's gap is under 9 ms."""
 
 
 def label_mismatch(sweep) -> np.ndarray:
