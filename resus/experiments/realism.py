@@ -148,7 +148,7 @@ class RealismSettings:
     wall_band: float = 0.015
     """Width of the band outside a lumen whose grey is its wall's, as a share of the imaged
     height (0.6 mm of a 4 cm image: a femoral wall and its blur); the reference ring lies two
-    to four such widths out."""
+    to four such widths out, and the lumen's interior starts one width inside its edge."""
 
     def __post_init__(self) -> None:
         for name in ("patch", "grain_patch"):
