@@ -53,7 +53,11 @@ around it. So each vessel region also gets its lumen contrast: the mean grey of 
 (more than one wall band inside its edge, clear of the wall's blur) over that of the same ring
 two to four band widths out, all round. Real lumens are seldom black, and seldom nearly as
 bright as their surroundings; a simulator that fills them with too much haze teaches a network
-to call grey tissue vessel.
+to call grey tissue vessel. And a lumen's interior is about as bright in its middle as towards
+its sides: each region's middle third of the interior's columns over its outer two thirds (no
+figure for a region cut by the image's side, whose middle is not the lumen's). Haze taken from
+the tissue beside a lumen alone leaves a dark slit down the middle of a lumen wider than that
+reach, a cue no real image offers.
 """
 
 from __future__ import annotations
@@ -264,6 +268,9 @@ class VesselShapeStats:
     lumen_quantiles: tuple[float, ...] | None
     """Quantiles `QUANTILES` of the regions' lumen contrast: interior grey over the tissue's
     around it (module docstring; None when no region has an interior that wide)."""
+    lumen_middle_quantiles: tuple[float, ...] | None
+    """Quantiles `QUANTILES` of the regions' interior grey in the middle third of its columns
+    over the outer thirds' (module docstring; None when no region gives one)."""
 
 
 @dataclass(frozen=True)
@@ -326,7 +333,7 @@ def _shapes(
 
 def _contrasts(figure: str, quantile: int) -> Callable[[RealismStats], float | None]:
     """A table row's getter of one quantile of the regions' contrasts `figure` ("lumen",
-    "wall_lateral" or "wall_axial")."""
+    "lumen_middle", "wall_lateral" or "wall_axial")."""
 
     def get(shapes: VesselShapeStats) -> float | None:
         quantiles = getattr(shapes, f"{figure}_quantiles")
@@ -381,6 +388,12 @@ TABLE: tuple[TableRow, ...] = (
     ("lumen / tissue around it, per vessel, 10th percentile", _contrasts("lumen", TENTH), 3),
     ("lumen / tissue around it, per vessel, median", _contrasts("lumen", MEDIAN), 3),
     ("lumen / tissue around it, per vessel, 90th percentile", _contrasts("lumen", NINETIETH), 3),
+    (
+        "lumen middle / outer thirds, per vessel, 10th percentile",
+        _contrasts("lumen_middle", TENTH),
+        3,
+    ),
+    ("lumen middle / outer thirds, per vessel, median", _contrasts("lumen_middle", MEDIAN), 3),
     ("wall / tissue beyond, beside the lumen, median", _contrasts("wall_lateral", MEDIAN), 2),
     ("wall / tissue beyond, above and below, median", _contrasts("wall_axial", MEDIAN), 2),
     (
@@ -625,6 +638,7 @@ class _Accumulator:
             wall_lateral_quantiles=_present_quantiles([c.beside for c in self.contrasts]),
             wall_axial_quantiles=_present_quantiles([c.above_below for c in self.contrasts]),
             lumen_quantiles=_present_quantiles([c.lumen for c in self.contrasts]),
+            lumen_middle_quantiles=_present_quantiles([c.lumen_middle for c in self.contrasts]),
         )
 
     def _grain(self) -> tuple[float | None, float | None]:
@@ -703,6 +717,9 @@ class VesselContrast(NamedTuple):
     """Wall grey over the tissue's beyond it, beside the lumen."""
     above_below: float | None
     """The same above and below the lumen."""
+    lumen_middle: float | None
+    """Interior grey in the middle third of the region's columns over the outer thirds'
+    (None for a region that touches the image's side)."""
 
 
 def vessel_contrasts(
@@ -713,7 +730,8 @@ def vessel_contrasts(
     lumen (other vessels left out), the lumen's pixels more than a band inside its edge, and
     the wall's at most a band outside it, each wall pixel beside the lumen or above or below
     it by the direction from the nearest lumen pixel (the wall's normal), within `WALL_SECTOR`
-    of the rows or of the columns."""
+    of the rows or of the columns; and the interior's middle third of columns over its outer
+    thirds."""
     return [_region_contrasts(image, vessel, region, band) for region in _regions(vessel, min_area)]
 
 
@@ -746,10 +764,15 @@ def _region_contrasts(
     angle = np.arctan2(np.abs(row - nearest_row), np.abs(col - nearest_col))
     grey = image[window].astype(np.float64)
     beside, above_below = angle <= WALL_SECTOR, angle >= math.pi / 2 - WALL_SECTOR
+    first, stop = box[1].start - left, box[1].stop - left
+    third = (stop - first) / 3
+    middle = (col >= first + third) & (col < stop - third)
+    cut = box[1].start == 0 or box[1].stop == vessel.shape[1]
     return VesselContrast(
         _mean_ratio(grey[interior], grey[far]),
         _mean_ratio(grey[near & beside], grey[far & beside]),
         _mean_ratio(grey[near & above_below], grey[far & above_below]),
+        None if cut else _mean_ratio(grey[interior & middle], grey[interior & ~middle]),
     )
 
 
@@ -1015,7 +1038,8 @@ def _report_lines(comparison: RealismComparison, sources: Mapping[str, object]) 
         "width), area and centre depth as shares of the imaged area and height. Per vessel: "
         f"the lumen's interior (more than {settings.wall_band:.1%} of the imaged height inside "
         "its edge) and the wall band (that wide, outside it; beside the lumen or above and "
-        "below it by the wall's normal) over the tissue two to four such bands out.",
+        "below it by the wall's normal) over the tissue two to four such bands out; the "
+        "interior's middle third of columns over its outer thirds.",
         "",
         f"![simulated and real images]({SIM_VS_REAL_PNG})",
         f"![grey-level histograms]({HISTOGRAMS_PNG})",

@@ -285,12 +285,12 @@ def test_vessel_contrasts_are_the_lumen_and_the_wall_over_the_ring_beyond_them()
     lumen[80:120, 80:140] = True
     image[lumen] = 10
     image[77:80, 80:140] = image[120:123, 80:140] = 100
-    ((inside, beside, above_below),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
-    assert inside == pytest.approx(0.2) and beside == 1.0
+    ((inside, beside, above_below, middle),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
+    assert inside == pytest.approx(0.2) and beside == 1.0 and middle == 1.0
     assert above_below == pytest.approx((360 * 100 + 4 * 50) / 364 / 50)
     # a wall drawn all round reads bright beside the lumen too
     image[~lumen & (ndimage.distance_transform_edt(~lumen) <= 3)] = 100
-    ((_, beside, _),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
+    ((_, beside, _, _),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
     assert beside == 2.0
     shapes = measure(one_image(image, lumen)).vessel_shapes
     assert shapes is not None and shapes.wall_lateral_quantiles == (2.0,) * len(QUANTILES)
@@ -302,11 +302,29 @@ def test_vessel_contrasts_are_the_lumen_and_the_wall_over_the_ring_beyond_them()
     across = np.zeros(shape, bool)
     across[90:110] = True
     plain = np.full(shape, 50, np.uint8)
-    assert vessel_contrasts(plain, across, 0.0, band=0.015) == [(1.0, None, 1.0)]
+    assert vessel_contrasts(plain, across, 0.0, band=0.015) == [(1.0, None, 1.0, None)]
     # a lumen too thin for an interior gives no lumen figure
     thin = np.zeros(shape, bool)
     thin[100:104, 60:160] = True
     assert vessel_contrasts(plain, thin, 0.0, band=0.015)[0].lumen is None
+
+
+def test_a_lumen_dark_down_its_middle_reads_below_one() -> None:
+    """A 40 x 60 lumen at grey 20 whose middle third of columns (100-119) is at 10: the
+    interior (more than 3 px inside the edge, columns 84-135) reads 10 over 20 there; moved
+    against the image's side, the region gives no figure."""
+    shape = (200, 220)
+    image = np.full(shape, 50, np.uint8)
+    lumen = np.zeros(shape, bool)
+    lumen[80:120, 80:140] = True
+    image[lumen] = 20
+    image[80:120, 100:120] = 10
+    assert vessel_contrasts(image, lumen, 0.0, band=0.015)[0].lumen_middle == pytest.approx(0.5)
+    shapes = measure(one_image(image, lumen)).vessel_shapes
+    assert shapes is not None
+    assert shapes.lumen_middle_quantiles == pytest.approx((0.5,) * len(QUANTILES))
+    at_side = np.roll(lumen, -80, axis=1)
+    assert vessel_contrasts(image, at_side, 0.0, band=0.015)[0].lumen_middle is None
 
 
 def test_a_wall_that_scatters_like_tissue_shows_above_and_below_the_lumen_not_beside_it() -> None:
@@ -328,7 +346,7 @@ def test_a_wall_that_scatters_like_tissue_shows_above_and_below_the_lumen_not_be
             simulator = UltrasoundSimulator(phantom, vascular.probe(), vascular.settings())
             pose = probe_pose_on_skin(phantom, spec.anatomy.centre_offset, -0.03)
             image, labels = simulator.render(pose)
-            for _, side, axial in vessel_contrasts(image, labels > 0, 0.0005, 0.015):
+            for _, side, axial, _ in vessel_contrasts(image, labels > 0, 0.0005, 0.015):
                 beside += [] if side is None else [side]
                 above_below += [] if axial is None else [axial]
         return float(np.median(beside)), float(np.median(above_below))
