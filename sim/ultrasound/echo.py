@@ -7,7 +7,7 @@
   surface nearest the step's wall pixel, which runs parallel to the wall), air after
   tissue stopping the line, each specular echo's reverberation (see the function), optional
   side-lobe clutter (`lateral_clutter`, computed before: a share of the scatter power of the
-  tissue beside each pixel); the reflectivity
+  tissue beside each pixel and across its row); the reflectivity
   (echogenicity times the phantom-fixed scatterer field summed over the elevational slice,
   plus specular echoes) is then convolved with the axial pulse. Output: the analytic (IQ)
   echo signal before time-gain compensation.
@@ -97,14 +97,16 @@ def lateral_clutter(
     rows: int,
     power: float,
     half_cols: int,
+    spread: float,
     cumulative: np.ndarray,
     out: np.ndarray,
 ) -> None:
     """Side-lobe clutter per pixel, `out[col * rows + row]` = `power` times the mean squared
-    echogenicity of the pixels in the same row within `half_cols` columns (air counts as 0):
-    the side lobes pick up the tissue beside a lumen at the lumen's own depth. Running sums
-    over the columns, each column's rows contiguous; `cumulative` is a (cols + 1, rows)
-    float32 work buffer."""
+    echogenicity of the pixels in the same row (air counts as 0), a share `spread` of it over
+    the whole row and the rest within `half_cols` columns: the side lobes pick up the tissue
+    beside a lumen at the lumen's own depth, the far lobes and reverberation tissue anywhere
+    in the image. Running sums over the columns, each column's rows contiguous; `cumulative`
+    is a (cols + 1, rows) float32 work buffer."""
     cols = out.shape[0] // rows
     cumulative[0, :] = 0.0
     for col in range(cols):
@@ -112,12 +114,14 @@ def lateral_clutter(
             m = material[col * rows + row]
             value = echogenicity[m] if m >= 0 else np.float32(0.0)
             cumulative[col + 1, row] = cumulative[col, row] + value * value
+    whole_row = np.float32(power * spread / cols)
     for col in range(cols):
         low = max(0, col - half_cols)
         high = min(cols, col + half_cols + 1)
-        scale = np.float32(power / (high - low))
+        near = np.float32(power * (1.0 - spread) / (high - low))
         for row in range(rows):
-            out[col * rows + row] = scale * (cumulative[high, row] - cumulative[low, row])
+            window = cumulative[high, row] - cumulative[low, row]
+            out[col * rows + row] = near * window + whole_row * cumulative[cols, row]
 
 
 @numba.njit(parallel=True, fastmath=VALUE_SAFE_FASTMATH, cache=True)

@@ -74,6 +74,11 @@ class UltrasoundSettings:
     within `active_aperture` at the same depth, added with the tissue's own speckle grain (it is
     that tissue seen through the side lobes). It fills lumens with faint echoes and barely
     changes tissue; None: no clutter."""
+    clutter_spread: float = 0.0
+    """Share of the clutter power (`clutter_db`) taken from the whole image row rather than
+    from within `active_aperture`: the far side lobes, grating lobes and reverberation of the
+    body wall see tissue well beyond one aperture, so a lumen wider than the aperture does not
+    darken towards its middle. 0 to 1; 0: the aperture's tissue only."""
     active_aperture: float = 10.0e-3
     """Width (m) of the elements that form one scan line: the tissue its side lobes see
     (`clutter_db`), and how far an element without coupling dims its neighbours' lines
@@ -135,6 +140,10 @@ class UltrasoundSettings:
         if not self.specular_angle < 1.5:
             raise ValueError(
                 f"ultrasound setting specular_angle must be below pi/2, got {self.specular_angle}"
+            )
+        if not 0 <= self.clutter_spread <= 1:
+            raise ValueError(
+                f"ultrasound setting clutter_spread must be in [0, 1], got {self.clutter_spread}"
             )
         for name in ("reverberation", "persistence"):
             if not 0 <= getattr(self, name) < 1:

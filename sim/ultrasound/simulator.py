@@ -240,6 +240,7 @@ class UltrasoundSimulator:
                 probe.rows,
                 self._clutter_power,
                 self._aperture_half_cols,
+                self.settings.clutter_spread,
                 self._clutter_sums,
                 self._clutter,
             )

@@ -17,7 +17,7 @@ from sim.ultrasound.beam import (
     lateral_beam_width,
     lattice_correlation,
 )
-from sim.ultrasound.echo import fast_log2, form_image, scan_lines
+from sim.ultrasound.echo import fast_log2, form_image, lateral_clutter, scan_lines
 from sim.ultrasound.probe import LinearProbe
 from sim.ultrasound.scatterers import FIELD_COMPONENT_VARIANCE, accumulate_line, mix_seed
 from sim.ultrasound.settings import UltrasoundSettings
@@ -124,12 +124,37 @@ def test_fast_log2_matches_numpy() -> None:
         {"tgc_attenuation": -0.1},
         {"specular_angle": 2.0},
         {"dynamic_range_db": -5.0},
+        {"clutter_spread": 1.5},
     ],
 )
 def test_bad_settings_are_refused(change: dict) -> None:
     name = next(iter(change))
     with pytest.raises(ValueError, match=name):
         UltrasoundSettings(**change)
+
+
+@pytest.mark.parametrize("spread", [0.0, 0.1, 1.0])
+def test_lateral_clutter_is_the_aperture_mean_plus_a_share_of_the_row_mean(spread: float) -> None:
+    """Clutter at (col, row) against numpy: power x ((1 - spread) x the mean squared
+    echogenicity within half_cols columns, clipped at the image's sides, + spread x the whole
+    row's); air (-1) counts as 0. In the middle of a lumen wider than the aperture only the
+    row's share is left."""
+    rng = np.random.default_rng(3)
+    cols, rows, half_cols, power = 40, 6, 4, 0.5
+    echogenicity = np.array([1.0, 0.03, 2.0], dtype=np.float32)
+    material = rng.integers(-1, 3, size=(cols, rows)).astype(np.int8)
+    material[10:30, 0] = 1  # a lumen 20 columns wide in the first row
+    out = np.empty(cols * rows, dtype=np.float32)
+    work = np.empty((cols + 1, rows), dtype=np.float32)
+    lateral_clutter(material.ravel(), echogenicity, rows, power, half_cols, spread, work, out)
+    squared = np.where(material >= 0, echogenicity[material], 0.0) ** 2
+    expected = np.empty((cols, rows))
+    for col in range(cols):
+        near = squared[max(0, col - half_cols) : col + half_cols + 1].mean(axis=0)
+        expected[col] = power * ((1 - spread) * near + spread * squared.mean(axis=0))
+    np.testing.assert_allclose(out.reshape(cols, rows), expected, rtol=1e-5, atol=1e-6)
+    middle = power * ((1 - spread) * 0.03**2 + spread * squared[:, 0].mean())
+    assert out[20 * rows] == pytest.approx(middle, rel=1e-5, abs=1e-6)
 
 
 def render_layers(attenuation: np.ndarray, impedance: np.ndarray | None = None) -> np.ndarray:
