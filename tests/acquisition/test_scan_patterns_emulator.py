@@ -121,8 +121,8 @@ def test_ctrl_c_during_a_scan_is_one_line_on_the_console(emulator, tmp_path):
     """Ctrl-C at a terminal reaches the whole foreground process group: the scan process and
     the synthetic probe's render worker, which printed its KeyboardInterrupt traceback beside
     the scan's own line."""
-    plan = write_linear_plan(
-        tmp_path / "plan.yaml", start=(0.0, -0.01), direction=(0.0, 1.0), length=0.03
+    plan = write_linear_plan(  # 6 s at 10 mm/s: the interrupt, 1 s in, finds it moving
+        tmp_path / "plan.yaml", start=(0.0, -0.03), direction=(0.0, 1.0), length=0.06
     )
     out = tmp_path / "sweep.h5"
     command = [sys.executable, "-m", "resus", "scan", "--robot", emulator.host]
@@ -140,6 +140,7 @@ def test_ctrl_c_during_a_scan_is_one_line_on_the_console(emulator, tmp_path):
         assert time.monotonic() < deadline, "the scan never started"
         time.sleep(0.1)
     time.sleep(1.0)  # moving: the robot backend and the render worker both run
+    assert scan.poll() is None, f"the scan ended (code {scan.returncode}) before the interrupt"
     os.killpg(scan.pid, signal.SIGINT)
     _, stderr = scan.communicate(timeout=60.0)
     assert scan.returncode == 2, stderr
