@@ -1,7 +1,7 @@
 """The README's Sim-to-real figures: the sweeps a simulation-only model trains on, beside the
 real images.
 
-The `quick` sim2real preset's 18 subjects of the in-vivo femoral phantom at seed 0, each under
+The `quick` sim2real preset's 36 subjects of the in-vivo femoral phantom at seed 0, each under
 its own random scanner preset, framed, pressed and tilted as `Sim2RealSettings` says, measured
 with `resus realism` (32 frames a sweep); realism.json, realism.md and the figures land in
 docs/realism/. Real images: tmkand/usgra-seg (CC BY 4.0).
