@@ -117,13 +117,17 @@ def test_a_two_station_press_runs_to_its_end_on_the_emulator(emulator, tmp_path)
         assert len(pressed) >= 5 and pressed.max() > 8.0 and pressed.min() < 3.5, pressed
 
 
-def as_a_terminal_starts_a_job() -> None:
-    """In the child before exec: SIGINT back to its default. A shell starts a foreground
-    job so; an xdist worker, by the time this test runs, has had it ignored (its SigIgn read
-    0x1001007 in a full suite run: SIGHUP, SIGINT and SIGQUIT, set by some library below
-    Python's own handler table, which still showed the default), and a Python started with
-    SIGINT ignored keeps it ignored: the scan finished its sweep and exited 0."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
+AS_A_TERMINAL_STARTS_A_JOB = (
+    "import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); "
+    "os.execv(sys.argv[1], sys.argv[1:])"
+)
+"""Run the command after it with SIGINT back to its default, in the same process (exec keeps
+the pid and a default disposition). A shell starts a foreground job so; an xdist worker, by
+the time this test runs, has had it ignored (its SigIgn read 0x1001007 in a full suite run:
+SIGHUP, SIGINT and SIGQUIT, set by some library below Python's own handler table, which still
+showed the default), and a Python started with SIGINT ignored keeps it ignored: the scan
+finished its sweep and exited 0. A trampoline rather than `preexec_fn`, which is unsafe in a
+parent with threads (the emulator's)."""
 
 
 def test_ctrl_c_during_a_scan_is_one_line_on_the_console(emulator, tmp_path):
@@ -134,7 +138,8 @@ def test_ctrl_c_during_a_scan_is_one_line_on_the_console(emulator, tmp_path):
         tmp_path / "plan.yaml", start=(0.0, -0.03), direction=(0.0, 1.0), length=0.06
     )
     out = tmp_path / "sweep.h5"
-    command = [sys.executable, "-m", "resus", "scan", "--robot", emulator.host]
+    command = [sys.executable, "-c", AS_A_TERMINAL_STARTS_A_JOB, sys.executable, "-m", "resus"]
+    command += ["scan", "--robot", emulator.host]
     command += ["--probe", "sim:32x32", "--trajectory", str(plan), "--out", str(out)]
     scan = subprocess.Popen(
         [*command, "--yes", "--approach-speed", "0.1"],
@@ -143,7 +148,6 @@ def test_ctrl_c_during_a_scan_is_one_line_on_the_console(emulator, tmp_path):
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,  # a process group of its own, as a terminal's job has
-        preexec_fn=as_a_terminal_starts_a_job,
     )
     deadline = time.monotonic() + 120.0
     while not out.exists() and scan.poll() is None:  # the Sweep opens as the robot moves off
