@@ -38,6 +38,13 @@ and its centre's depth are shares of the imaged area and height, so that 256 px 
 times longer than wide: common in simulation at a heavy probe force, rare in real scans made
 with the light touch of a vascular examination.
 
+Vessel placement. Where the sonographer puts the vessels across the picture: each image's
+vessel centroid (the mean column of the pixels of its counted regions, a share of the imaged
+width) and its distance from the middle, 0 to 0.5. A simulated probe centred over the vessels
+shows them in the middle and little of what lies beside them; real images, aimed at a nerve
+or a branch, often show them to one side. An image whose centroid lies more than
+`OFF_SIDE_OFFSET` from the middle shows its vessels in an outer quarter.
+
 Vessel walls. A wall echoes brightly where the beam meets it square (above and below the
 lumen: a specular reflection) and hardly at all beside it, where the beam grazes it; a wall
 drawn as a bright ring all round is a cue no real image offers. For each vessel region, the
@@ -114,6 +121,9 @@ MIN_CONTRAST_PIXELS = 10
 give a figure."""
 ELONGATED_ASPECT = 3.0
 """A vessel region longer than this many times its width counts as flattened."""
+OFF_SIDE_OFFSET = 0.25
+"""An image's vessel centroid this far (a share of the imaged width) or further from the
+middle lies in an outer quarter: the vessels shown to one side."""
 PIXEL_SECOND_MOMENT = 1.0 / 12.0
 """Second moment of a unit square about its centre along either axis: what each pixel adds to
 a region's covariance when the region is the union of its pixels' squares."""
@@ -258,6 +268,11 @@ class VesselShapeStats:
     depth_quantiles: tuple[float, ...]
     """Quantiles `QUANTILES` of the regions' centre depths, as shares of the imaged height
     (0: the face, 1: the bottom)."""
+    centroid_offset_quantiles: tuple[float, ...]
+    """Quantiles `QUANTILES`, over the images that show a vessel region, of the distance of
+    their vessel centroid from the middle, as a share of the imaged width (0 to 0.5)."""
+    off_side_share: float
+    """Share of those images whose centroid lies `OFF_SIDE_OFFSET` or more from the middle."""
     aspects: tuple[float, ...]
     """Every region's aspect, for the figure's distribution."""
     wall_lateral_quantiles: tuple[float, ...] | None
@@ -385,6 +400,16 @@ TABLE: tuple[TableRow, ...] = (
     ),
     ("vessel area, median (% of image)", _shapes(lambda s: 100 * s.area_quantiles[MEDIAN]), 2),
     ("vessel centre depth, median (share)", _shapes(lambda s: s.depth_quantiles[MEDIAN]), 3),
+    (
+        "vessel centroid off the middle, per image, median (share of the width)",
+        _shapes(lambda s: s.centroid_offset_quantiles[MEDIAN]),
+        3,
+    ),
+    (
+        f"images with their vessels {OFF_SIDE_OFFSET:g} or more off the middle (share)",
+        _shapes(lambda s: s.off_side_share),
+        3,
+    ),
     ("lumen / tissue around it, per vessel, 10th percentile", _contrasts("lumen", TENTH), 3),
     ("lumen / tissue around it, per vessel, median", _contrasts("lumen", MEDIAN), 3),
     ("lumen / tissue around it, per vessel, 90th percentile", _contrasts("lumen", NINETIETH), 3),
@@ -557,6 +582,8 @@ class _Accumulator:
         self.grain_patches = 0
         self.regions: list[tuple[float, float, float]] = []
         """(aspect, area share, depth share) of each vessel region."""
+        self.centroid_offsets: list[float] = []
+        """Each image's vessel centroid's distance from the middle (share of the width)."""
         self.contrasts: list[VesselContrast] = []
         """Lumen and wall contrasts of each vessel region."""
         self.showing = 0
@@ -597,6 +624,8 @@ class _Accumulator:
             _region_contrasts(image, vessel, region, self.settings.wall_band) for region in regions
         )
         self.showing += bool(regions)
+        if regions:
+            self.centroid_offsets.append(centroid_offset(vessel, regions))
 
     def depth_profile(self) -> tuple[float | None, ...]:
         """Mean tissue grey of each depth band (None where a band had no tissue)."""
@@ -627,6 +656,7 @@ class _Accumulator:
         if not self.regions:
             return None
         aspects, areas, depths = (np.array(column) for column in zip(*self.regions, strict=True))
+        offsets = np.array(self.centroid_offsets)
         return VesselShapeStats(
             regions=len(aspects),
             showing_share=self.showing / images,
@@ -634,6 +664,8 @@ class _Accumulator:
             elongated_share=float((aspects > ELONGATED_ASPECT).mean()),
             area_quantiles=_quantiles(areas),
             depth_quantiles=_quantiles(depths),
+            centroid_offset_quantiles=_quantiles(offsets),
+            off_side_share=float((offsets >= OFF_SIDE_OFFSET).mean()),
             aspects=tuple(float(a) for a in aspects),
             wall_lateral_quantiles=_present_quantiles([c.beside for c in self.contrasts]),
             wall_axial_quantiles=_present_quantiles([c.above_below for c in self.contrasts]),
@@ -695,6 +727,13 @@ def vessel_regions(vessel: np.ndarray, min_area: float) -> list[tuple[float, flo
     """(aspect, area share, centre depth share) of each 8-connected region of the imaged
     area's vessel mask `vessel` that covers at least `min_area` of it (module docstring)."""
     return [_region_shape(vessel, region) for region in _regions(vessel, min_area)]
+
+
+def centroid_offset(vessel: np.ndarray, regions: Sequence[Region]) -> float:
+    """Distance of the mean column of `regions`' pixels from the middle of the imaged area
+    `vessel`, as a share of its width (module docstring, "Vessel placement")."""
+    columns = np.concatenate([box[1].start + cols for box, _, cols in regions])
+    return abs((columns.mean() + 0.5) / vessel.shape[1] - 0.5)  # pixel centres at col + 0.5
 
 
 def _region_shape(vessel: np.ndarray, region: Region) -> tuple[float, float, float]:

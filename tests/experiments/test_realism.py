@@ -274,6 +274,42 @@ def test_vessel_shapes_count_regions_above_the_least_area_over_the_imaged_area()
     assert measure(one_image(second)).vessel_shapes is None
 
 
+def test_vessel_placement_is_the_centroid_off_the_imaged_areas_middle() -> None:
+    """Three images, each with 20 black columns beside an 80 px wide imaged area: a pair of
+    vessels either side of its middle (centroid on it: 0), a block of columns 70-79 (its
+    centroid at 75, 55 of 80 from the imaged edge: 0.1875 off) and a block of columns 80-89
+    (0.3125 off: an outer quarter). The pixels weigh, not the regions: a large and a small
+    vessel pull the centroid towards the large one."""
+    shape = (60, 100)
+
+    def image_with(*blocks: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+        image = np.zeros(shape, np.uint8)
+        image[:, 20:] = 90
+        vessel = np.zeros(shape, bool)
+        for top, bottom, left, right in blocks:
+            vessel[top:bottom, left:right] = True
+        return image, vessel
+
+    sets = [
+        image_with((20, 30, 40, 50), (20, 30, 70, 80)),
+        image_with((20, 30, 70, 80)),
+        image_with((20, 30, 80, 90)),
+    ]
+    images = ImageSet("test", tuple(i for i, _ in sets), tuple(v for _, v in sets), ("a", "b", "c"))
+    shapes = measure(images).vessel_shapes
+    assert shapes is not None
+    assert shapes.centroid_offset_quantiles[QUANTILES.index(0.5)] == pytest.approx(0.1875)
+    assert min(shapes.centroid_offset_quantiles) == pytest.approx(
+        np.quantile([0.0, 0.1875, 0.3125], QUANTILES[0])
+    )
+    assert shapes.off_side_share == pytest.approx(1 / 3)
+    image, vessel = image_with((10, 40, 30, 40), (20, 30, 80, 90))  # 300 px at 35, 100 at 85
+    shapes = measure(one_image(image, vessel)).vessel_shapes
+    assert shapes is not None
+    expected = abs((300 * 15 + 100 * 65) / 400 / 80 - 0.5)  # columns from the imaged edge
+    assert shapes.centroid_offset_quantiles == pytest.approx((expected,) * len(QUANTILES))
+
+
 def test_vessel_contrasts_are_the_lumen_and_the_wall_over_the_ring_beyond_them() -> None:
     """Tissue at grey 50, a 40 x 60 lumen at 10, and a wall at 100 only above and below it
     (3 px, the band: 0.015 of 200 rows): the lumen reads 0.2; beside the lumen the band is
