@@ -43,7 +43,9 @@ vessel centroid (the mean column of the pixels of its counted regions, a share o
 width) and its distance from the middle, 0 to 0.5. A simulated probe centred over the vessels
 shows them in the middle and little of what lies beside them; real images, aimed at a nerve
 or a branch, often show them to one side. An image whose centroid lies more than
-`OFF_SIDE_OFFSET` from the middle shows its vessels in an outer quarter.
+`OFF_SIDE_OFFSET` from the middle shows its vessels in an outer quarter. And how many vessel
+regions the picture cuts: those touching the imaged area's side or bottom (the face is not an
+edge a vessel can cross). Vessels wide apart in a narrow field are cut more often.
 
 Vessel walls. A wall echoes brightly where the beam meets it square (above and below the
 lumen: a specular reflection) and hardly at all beside it, where the beam grazes it; a wall
@@ -273,6 +275,8 @@ class VesselShapeStats:
     their vessel centroid from the middle, as a share of the imaged width (0 to 0.5)."""
     off_side_share: float
     """Share of those images whose centroid lies `OFF_SIDE_OFFSET` or more from the middle."""
+    cut_share: float
+    """Share of the regions that touch the imaged area's side or bottom (cut by the picture)."""
     aspects: tuple[float, ...]
     """Every region's aspect, for the figure's distribution."""
     wall_lateral_quantiles: tuple[float, ...] | None
@@ -410,6 +414,7 @@ TABLE: tuple[TableRow, ...] = (
         _shapes(lambda s: s.off_side_share),
         3,
     ),
+    ("vessels cut by the picture's side or bottom (share)", _shapes(lambda s: s.cut_share), 3),
     ("lumen / tissue around it, per vessel, 10th percentile", _contrasts("lumen", TENTH), 3),
     ("lumen / tissue around it, per vessel, median", _contrasts("lumen", MEDIAN), 3),
     ("lumen / tissue around it, per vessel, 90th percentile", _contrasts("lumen", NINETIETH), 3),
@@ -584,6 +589,8 @@ class _Accumulator:
         """(aspect, area share, depth share) of each vessel region."""
         self.centroid_offsets: list[float] = []
         """Each image's vessel centroid's distance from the middle (share of the width)."""
+        self.cut = 0
+        """Vessel regions that touch the imaged area's side or bottom."""
         self.contrasts: list[VesselContrast] = []
         """Lumen and wall contrasts of each vessel region."""
         self.showing = 0
@@ -624,6 +631,7 @@ class _Accumulator:
             _region_contrasts(image, vessel, region, self.settings.wall_band) for region in regions
         )
         self.showing += bool(regions)
+        self.cut += sum(is_cut(vessel.shape, region) for region in regions)
         if regions:
             self.centroid_offsets.append(centroid_offset(vessel, regions))
 
@@ -666,6 +674,7 @@ class _Accumulator:
             depth_quantiles=_quantiles(depths),
             centroid_offset_quantiles=_quantiles(offsets),
             off_side_share=float((offsets >= OFF_SIDE_OFFSET).mean()),
+            cut_share=self.cut / len(aspects),
             aspects=tuple(float(a) for a in aspects),
             wall_lateral_quantiles=_present_quantiles([c.beside for c in self.contrasts]),
             wall_axial_quantiles=_present_quantiles([c.above_below for c in self.contrasts]),
@@ -734,6 +743,12 @@ def centroid_offset(vessel: np.ndarray, regions: Sequence[Region]) -> float:
     `vessel`, as a share of its width (module docstring, "Vessel placement")."""
     columns = np.concatenate([box[1].start + cols for box, _, cols in regions])
     return abs((columns.mean() + 0.5) / vessel.shape[1] - 0.5)  # pixel centres at col + 0.5
+
+
+def is_cut(shape: tuple[int, ...], region: Region) -> bool:
+    """Whether `region` of an imaged area of `shape` touches its side or bottom."""
+    rows, columns = region[0]
+    return columns.start == 0 or columns.stop == shape[1] or rows.stop == shape[0]
 
 
 def _region_shape(vessel: np.ndarray, region: Region) -> tuple[float, float, float]:
@@ -1074,7 +1089,10 @@ def _report_lines(comparison: RealismComparison, sources: Mapping[str, object]) 
         f"{settings.grain_patch} px windows, in each set's own pixels. Vessel shapes: each "
         f"connected vessel region of at least {settings.min_vessel_area:.2%} of its image's "
         "imaged area; aspect = sqrt of its second moments' eigenvalue ratio (length over "
-        "width), area and centre depth as shares of the imaged area and height. Per vessel: "
+        "width), area and centre depth as shares of the imaged area and height; placement: "
+        "each image's vessel centroid (mean column of its regions' pixels) off the middle, as "
+        "a share of the width; cut: regions touching the imaged area's side or bottom. Per "
+        "vessel: "
         f"the lumen's interior (more than {settings.wall_band:.1%} of the imaged height inside "
         "its edge) and the wall band (that wide, outside it; beside the lumen or above and "
         "below it by the wall's normal) over the tissue two to four such bands out; the "

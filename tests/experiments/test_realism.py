@@ -274,12 +274,13 @@ def test_vessel_shapes_count_regions_above_the_least_area_over_the_imaged_area()
     assert measure(one_image(second)).vessel_shapes is None
 
 
-def test_vessel_placement_is_the_centroid_off_the_imaged_areas_middle() -> None:
+def test_vessel_placement_is_the_centroid_off_the_middle_and_the_regions_cut() -> None:
     """Three images, each with 20 black columns beside an 80 px wide imaged area: a pair of
     vessels either side of its middle (centroid on it: 0), a block of columns 70-79 (its
     centroid at 75, 55 of 80 from the imaged edge: 0.1875 off) and a block of columns 80-89
     (0.3125 off: an outer quarter). The pixels weigh, not the regions: a large and a small
-    vessel pull the centroid towards the large one."""
+    vessel pull the centroid towards the large one. A region touching the imaged area's side
+    or bottom is cut by the picture; one touching its top (the face) is not."""
     shape = (60, 100)
 
     def image_with(*blocks: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -303,11 +304,16 @@ def test_vessel_placement_is_the_centroid_off_the_imaged_areas_middle() -> None:
         np.quantile([0.0, 0.1875, 0.3125], QUANTILES[0])
     )
     assert shapes.off_side_share == pytest.approx(1 / 3)
+    assert shapes.cut_share == 0.0  # the imaged area starts at column 20, not at 0
     image, vessel = image_with((10, 40, 30, 40), (20, 30, 80, 90))  # 300 px at 35, 100 at 85
     shapes = measure(one_image(image, vessel)).vessel_shapes
     assert shapes is not None
     expected = abs((300 * 15 + 100 * 65) / 400 / 80 - 0.5)  # columns from the imaged edge
     assert shapes.centroid_offset_quantiles == pytest.approx((expected,) * len(QUANTILES))
+    # cut by the picture: a vessel at its right edge and one at its bottom; the face is no cut
+    image, vessel = image_with((0, 10, 40, 50), (20, 30, 90, 100), (50, 60, 50, 60))
+    shapes = measure(one_image(image, vessel)).vessel_shapes
+    assert shapes is not None and shapes.cut_share == pytest.approx(2 / 3)
 
 
 def test_vessel_contrasts_are_the_lumen_and_the_wall_over_the_ring_beyond_them() -> None:
