@@ -60,7 +60,10 @@ class LocalExecutor(Executor):
                 for future in as_completed(futures):
                     yield futures[future], future.result()  # the first failure ends the map
             except BrokenProcessPool:
-                raise WorkerLost("a worker process died (killed, or out of memory)") from None
+                raise WorkerLost(
+                    "a worker process died (killed, out of memory, or started from a script "
+                    "without an `if __name__ == '__main__':` guard, which spawned workers re-run)"
+                ) from None
             finally:
                 for future in futures:
                     future.cancel()  # those not started yet; running ones finish
