@@ -42,8 +42,8 @@ Vessel placement. Where the sonographer puts the vessels across the picture: eac
 vessel centroid (the mean column of the pixels of its counted regions, a share of the imaged
 width) and its distance from the middle, 0 to 0.5. A simulated probe centred over the vessels
 shows them in the middle and little of what lies beside them; real images, aimed at a nerve
-or a branch, often show them to one side. An image whose centroid lies more than
-`OFF_SIDE_OFFSET` from the middle shows its vessels in an outer quarter. And how many vessel
+or a branch, often show them to one side. An image whose centroid lies `OFF_SIDE_OFFSET` or
+more from the middle shows its vessels in an outer quarter. And how many vessel
 regions the picture cuts: those touching the imaged area's side or bottom (the face is not an
 edge a vessel can cross). Vessels wide apart in a narrow field are cut more often.
 
