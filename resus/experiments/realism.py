@@ -588,12 +588,12 @@ class _Accumulator:
         self.regions: list[tuple[float, float, float]] = []
         """(aspect, area share, depth share) of each vessel region."""
         self.centroid_offsets: list[float] = []
-        """Each image's vessel centroid's distance from the middle (share of the width)."""
+        """Each image's vessel centroid's distance from the middle (share of the width), one
+        per image that shows a vessel region."""
         self.cut = 0
         """Vessel regions that touch the imaged area's side or bottom."""
         self.contrasts: list[VesselContrast] = []
         """Lumen and wall contrasts of each vessel region."""
-        self.showing = 0
 
     def add(self, image: np.ndarray, vessel: np.ndarray) -> None:
         from scipy import ndimage
@@ -630,7 +630,6 @@ class _Accumulator:
         self.contrasts.extend(
             _region_contrasts(image, vessel, region, self.settings.wall_band) for region in regions
         )
-        self.showing += bool(regions)
         self.cut += sum(is_cut(vessel.shape, region) for region in regions)
         if regions:
             self.centroid_offsets.append(centroid_offset(vessel, regions))
@@ -667,7 +666,7 @@ class _Accumulator:
         offsets = np.array(self.centroid_offsets)
         return VesselShapeStats(
             regions=len(aspects),
-            showing_share=self.showing / images,
+            showing_share=len(self.centroid_offsets) / images,
             aspect_quantiles=_quantiles(aspects),
             elongated_share=float((aspects > ELONGATED_ASPECT).mean()),
             area_quantiles=_quantiles(areas),
