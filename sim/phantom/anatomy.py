@@ -32,14 +32,8 @@ class FemoralAnatomy:
 
     centre_offset: float = 0.0
     """Lateral offset of the artery-vein midpoint from x = 0."""
-    artery_vein_gap: float = 0.004
-    """Fat between the common femoral artery's and vein's walls across the leg (along x, as
-    if at one depth): the femoral sheath holds the two side by side, a septum and a few
-    millimetres apart, so their centres lie as far apart as their radii and walls make them
-    (`artery_vein_spacing`)."""
-    artery_side: float = 1.0
-    """+1 for the artery lateral to the vein (as in nearly everyone), -1 for it medial (a
-    transposition)."""
+    artery_vein_spacing: float = 0.014
+    """Centre-to-centre distance of artery and vein along x."""
     artery_depth: float = 0.016
     """Depth of the CFA centre below the top line at the proximal end."""
     vein_depth_offset: float = 0.002
@@ -114,13 +108,6 @@ class FemoralAnatomy:
     nerve_seed: float = 0.0
     """Seed (its whole part) of how the fascicles are packed inside the nerve."""
 
-    @property
-    def artery_vein_spacing(self) -> float:
-        """Centre-to-centre distance of artery and vein along x, signed by `artery_side`: the
-        common femoral vessels' radii and walls plus the gap between them."""
-        reach = self.cfa_radius + self.artery_wall + self.artery_vein_gap
-        return self.artery_side * (reach + self.vein_wall + self.cfv_radius)
-
 
 def _smoothstep(t: np.ndarray) -> np.ndarray:
     t = np.clip(t, 0.0, 1.0)
@@ -170,10 +157,6 @@ def build_vessels(
     a = anatomy
     y0, y1 = -body.extent_y / 2, body.extent_y / 2
     yb, yg = a.bifurcation_y, a.gsv_junction_y
-    if a.artery_side not in (-1.0, 1.0):
-        raise ValueError(f"artery_side {a.artery_side} must be 1 (lateral) or -1 (medial)")
-    if a.artery_vein_gap < 0.0:
-        raise ValueError(f"artery_vein_gap {a.artery_vein_gap} must be >= 0: the walls overlap")
     if not y0 + CONTROL_STEP <= yb <= y1 - 2 * CONTROL_STEP:
         raise ValueError(f"bifurcation_y {yb} must lie inside the body, away from its ends")
     if not y0 + CONTROL_STEP <= yg <= y1 - a.gsv_arch - CONTROL_STEP:
@@ -272,7 +255,7 @@ def build_muscles(
     y = _stations(-body.extent_y / 2, body.extent_y / 2, 2 * CONTROL_STEP)
     course = _Course(a, lateral, -body.extent_y / 2)
     middle = (course.artery(y) + course.vein(y)) / 2  # the pair's midline, as it sways and dips
-    reach = abs(a.artery_vein_spacing) / 2 + a.cfv_radius + a.vein_wall
+    reach = a.artery_vein_spacing / 2 + a.cfv_radius + a.vein_wall
     muscles = []
     for k in range(int(a.muscle_count)):
         radius = a.muscle_radius * rng.uniform(0.7, 1.3)
@@ -281,7 +264,7 @@ def build_muscles(
             offset_x = rng.choice((-1.0, 1.0)) * (reach + gap + radius)
             offset_depth = rng.uniform(-0.5, 1.0) * radius
         else:  # beneath it
-            offset_x = rng.uniform(-1.0, 1.0) * abs(a.artery_vein_spacing)
+            offset_x = rng.uniform(-1.0, 1.0) * a.artery_vein_spacing
             offset_depth = a.cfv_radius + a.vein_wall + gap + radius
         drift = rng.uniform(-MUSCLE_DRIFT, MUSCLE_DRIFT)
         points = middle.copy()
