@@ -83,3 +83,17 @@ def test_bellies_need_a_muscle_material(subjects) -> None:
     subject = next(s for s in subjects if s.muscles)
     with pytest.raises(ValueError, match="muscle bellies are given but no muscle material"):
         dataclasses.replace(subject, muscle=None)
+
+
+def test_bellies_lie_where_they_would_whichever_side_the_artery_takes(subjects) -> None:
+    """The bellies are placed about the pair's midline by its unsigned width: a transposed pair
+    (artery medial, negative `artery_vein_spacing`) gets the same bellies, not ones pulled
+    inside the pair and then left out."""
+    from sim.phantom.anatomy import build_muscles
+
+    for subject in subjects[:4]:
+        anatomy = dataclasses.replace(subject.anatomy, muscle_count=5.0)
+        transposed = dataclasses.replace(anatomy, artery_vein_spacing=-anatomy.artery_vein_spacing)
+        bellies = build_muscles(anatomy, subject.body, subject.lateral_sign)
+        assert len(bellies) == 5
+        assert build_muscles(transposed, subject.body, subject.lateral_sign) == bellies
