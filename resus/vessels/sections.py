@@ -39,8 +39,8 @@ class SectionSettings:
     """Components smaller than this are specks, not cross-sections (m^2; 1 mm^2)."""
     link_distance: float = 4.0e-3
     """Farthest a section's centre may lie from its track's last one, or a piece's centre from
-    the last one's major axis (m): well under the femoral artery-vein distance (11-19 mm
-    between centres)."""
+    the last one's major axis (m): well under the femoral artery-vein distance (9-19 mm
+    between centres in the phantoms' subjects)."""
     max_gap: float = 8.0
     """Longest time a track waits for its vessel to appear again (s): a vein stays shut
     through a press's rise, hold and fall."""
