@@ -85,3 +85,11 @@ def test_missing_sweep_and_unlabelled_sweep_are_named(sweep_path: Path, tmp_path
     done = resus("vessels", unlabelled, "--labels-from-sweep", "--out", tmp_path / "o")
     assert done.returncode != 0 and len(done.stderr.strip().splitlines()) == 1
     assert "has no labels" in done.stderr
+
+
+def test_a_map_without_vessels_writes_no_meshes_instead_of_failing(tmp_path: Path) -> None:
+    """An undertrained model (the demo's smallest size) can find only specks: its map has no
+    meshes, and no files are written for them (a glTF scene cannot be empty)."""
+    from resus.vessels import write_meshes
+
+    assert write_meshes(tmp_path, {}) == [] and not list(tmp_path.iterdir())
