@@ -81,9 +81,17 @@ def test_every_file_the_summary_lists_exists_and_is_valid(demo) -> None:
     for name in files["meshes"]:
         mesh = trimesh.load(out / name, force="mesh")
         assert len(mesh.faces) > 100, name
+    found = {}
     for name in files["volumes"]:
         volume, grid, _ = read_volume(out / name)
-        assert volume.shape == grid.shape and volume.any(), name
+        assert volume.shape == grid.shape, name
+        found[name] = volume.any()
+    # The reconstructions and the truth's map have vessels; a one-epoch model's map may have
+    # none (seed 4's RESUS model on the femoral subjects of 2026-12-05 finds only specks), but
+    # not every model's.
+    by_model = {n for n in found if n.startswith("vessels/") and "ground_truth" not in n}
+    assert by_model and all(found[n] for n in found if n not in by_model), found
+    assert any(found[n] for n in by_model), found
     for name in files["sweeps"]:
         sweep = read_sweep(out / name)
         assert sweep.frames.shape[1:] == (48, 48) and sweep.labels is not None
