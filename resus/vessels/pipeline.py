@@ -286,6 +286,8 @@ def write_meshes(out: Path, meshes: dict[str, trimesh.Trimesh]) -> list[Path]:
     """Each class as PLY and STL in millimetres (as 3D Slicer reads them, world coordinates
     unchanged like the NRRD volumes), and all classes in one GLB in metres (glTF's unit); no
     files at all for a map without vessels (a glTF scene cannot be empty)."""
+    if not meshes:
+        return []
     written = []
     scene = trimesh.Scene()
     for name, mesh in meshes.items():
@@ -298,9 +300,8 @@ def write_meshes(out: Path, meshes: dict[str, trimesh.Trimesh]) -> list[Path]:
         # trimesh types `visual` as a union; an untextured mesh's is ColorVisuals
         coloured.visual.face_colors = [*label_colour(VESSEL_CLASSES[name]), 255]  # type: ignore[union-attr]
         scene.add_geometry(coloured, geom_name=name)
-    if meshes:
-        written.append(out / "vessel_map.glb")
-        scene.export(written[-1])
+    written.append(out / "vessel_map.glb")
+    scene.export(written[-1])
     return written
 
 

@@ -255,7 +255,8 @@ def build_muscles(
     y = _stations(-body.extent_y / 2, body.extent_y / 2, 2 * CONTROL_STEP)
     course = _Course(a, lateral, -body.extent_y / 2)
     middle = (course.artery(y) + course.vein(y)) / 2  # the pair's midline, as it sways and dips
-    reach = abs(a.artery_vein_spacing) / 2 + a.cfv_radius + a.vein_wall
+    width = abs(a.artery_vein_spacing)  # the artery lies lateral or (transposed) medial
+    reach = width / 2 + a.cfv_radius + a.vein_wall
     muscles = []
     for k in range(int(a.muscle_count)):
         radius = a.muscle_radius * rng.uniform(0.7, 1.3)
@@ -264,7 +265,7 @@ def build_muscles(
             offset_x = rng.choice((-1.0, 1.0)) * (reach + gap + radius)
             offset_depth = rng.uniform(-0.5, 1.0) * radius
         else:  # beneath it
-            offset_x = rng.uniform(-1.0, 1.0) * abs(a.artery_vein_spacing)
+            offset_x = rng.uniform(-1.0, 1.0) * width
             offset_depth = a.cfv_radius + a.vein_wall + gap + radius
         drift = rng.uniform(-MUSCLE_DRIFT, MUSCLE_DRIFT)
         points = middle.copy()
