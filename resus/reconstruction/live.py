@@ -52,9 +52,14 @@ class LiveVolume:
         """`n_classes` counts label classes with background (0: frames carry no labels)."""
         self.stream = stream
         self.every = max(1, every)
-        self.reconstructor = Reconstructor(
-            grid, image_to_probe, ReconstructionSettings(fill_passes=0), n_classes
-        )
+        settings = ReconstructionSettings(fill_passes=0)
+        self.reconstructor = Reconstructor(grid, image_to_probe, settings, n_classes)
+        # The compounding kernel compiles on its first call: seconds on a cold numba cache,
+        # which in the control loop would stall the scan while the robot moves on. A black
+        # frame into a throwaway reconstructor compiles it now, before the scan starts.
+        blank = np.zeros((2, 2), dtype=np.uint8)
+        warm_up = Reconstructor(grid, image_to_probe, settings, n_classes)
+        warm_up.add_frame(blank, np.eye(4), blank if n_classes else None)
         self.logged = 0
         """How many times the volume was logged."""
         self._logged_frames = 0
