@@ -56,9 +56,11 @@ class LiveVolume:
         self.reconstructor = Reconstructor(grid, image_to_probe, settings, n_classes)
         # The compounding kernel compiles on its first call: seconds on a cold numba cache,
         # which in the control loop would stall the scan while the robot moves on. A black
-        # frame into a throwaway reconstructor compiles it now, before the scan starts.
+        # frame into a throwaway reconstructor of one voxel (not a second copy of the volume)
+        # compiles it now, before the scan starts.
         blank = np.zeros((2, 2), dtype=np.uint8)
-        warm_up = Reconstructor(grid, image_to_probe, settings, n_classes)
+        one_voxel = aabb_grid(float(grid.spacing.min()), bounds=(np.zeros(3), np.zeros(3)))
+        warm_up = Reconstructor(one_voxel, image_to_probe, settings, n_classes)
         warm_up.add_frame(blank, np.eye(4), blank if n_classes else None)
         self.logged = 0
         """How many times the volume was logged."""
