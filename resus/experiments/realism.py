@@ -56,6 +56,13 @@ lumen (where the wall's normal, the direction from the nearest lumen pixel, lies
 degrees of the rows) and above and below it (within 30 degrees of the columns, the beam): 1
 where the wall is no brighter than the tissue beyond it.
 
+Bright lines. Fasciae, septa and perimysium echo where the beam meets them square: real images
+show them as streaks across the beam, a simulator that draws them alike at every angle as a
+honeycomb with a tail of steep lines. The tissue's bright lines (clear of the vessels by the
+speckle's margin or three of the line scale's sigmas, whichever is more) and the angle of each
+one's normal to the beam, `resus.experiments.line_orientation`: the share within 10 degrees of
+across the beam, and the share steeper than 45 degrees.
+
 Vessel lumens. The pooled lumen/tissue ratio weighs every lumen pixel against all the tissue
 of the set, at every depth; what a reader (or a network) sees is each lumen against the tissue
 around it. So each vessel region also gets its lumen contrast: the mean grey of its interior
@@ -82,6 +89,16 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from resus.errors import ResusError
+from resus.experiments.line_orientation import (
+    ANGLE_BIN_DEGREES,
+    EDGE_SIGMAS,
+    LINE_SCALE,
+    LINE_SHARE,
+    bright_line_normals,
+    line_angle_counts,
+    line_scale_pixels,
+    share_between,
+)
 from resus.indices import evenly_spaced
 from sim.labels import VESSEL_CLASSES
 from sim.ultrasound.settings import UltrasoundSettings
@@ -330,6 +347,9 @@ class RealismStats:
     """None when no window qualifies."""
     vessel_shapes: VesselShapeStats | None
     """None when no image shows a vessel region."""
+    line_angle_shares: tuple[float, ...] | None
+    """Share of the tissue's bright-line pixels in each `ANGLE_BIN_DEGREES` bin of their
+    normal's angle to the beam, 0 to 90 degrees (module docstring; None without any)."""
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -368,6 +388,13 @@ def _falloffs(quantile: int) -> Callable[[RealismStats], float | None]:
     )
 
 
+def _lines(low: float, high: float) -> Callable[[RealismStats], float | None]:
+    """A table row's getter of the share of bright lines `low` to `high` degrees steep."""
+    return lambda s: (
+        None if s.line_angle_shares is None else share_between(s.line_angle_shares, low, high)
+    )
+
+
 def _band(band: int) -> Callable[[RealismStats], float | None]:
     """A table row's getter of one depth band's tissue grey."""
     return lambda stats: stats.depth_profile[band]
@@ -393,6 +420,8 @@ TABLE: tuple[TableRow, ...] = (
     ("window grey SNR, median", _speckle(lambda s: s.snr_quantiles[MEDIAN]), 2),
     ("grain axial FWHM (px)", _speckle(lambda s: s.grain_axial), 2),
     ("grain lateral FWHM (px)", _speckle(lambda s: s.grain_lateral), 2),
+    ("bright lines within 10 degrees of across the beam (share)", _lines(0, 10), 3),
+    ("bright lines steeper than 45 degrees (share)", _lines(45, 90), 3),
     ("vessel regions", _shapes(lambda s: s.regions), 0),
     ("images showing a vessel (share)", _shapes(lambda s: s.showing_share), 3),
     ("vessel aspect, median", _shapes(lambda s: s.aspect_quantiles[MEDIAN]), 2),
@@ -594,6 +623,8 @@ class _Accumulator:
         """Vessel regions that touch the imaged area's side or bottom."""
         self.contrasts: list[VesselContrast] = []
         """Lumen and wall contrasts of each vessel region."""
+        self.line_angles = np.zeros(round(90 / ANGLE_BIN_DEGREES), np.int64)
+        """Bright-line pixels per bin of their normal's angle to the beam."""
 
     def add(self, image: np.ndarray, vessel: np.ndarray) -> None:
         from scipy import ndimage
@@ -612,9 +643,16 @@ class _Accumulator:
         falloff = depth_falloff(_band_means(sums, pixels))
         if falloff is not None:
             self.falloffs.append(falloff)
-        usable = ~vessel
-        if vessel.any() and self.settings.vessel_margin > 0:
-            usable = ndimage.distance_transform_edt(usable) >= self.settings.vessel_margin
+        clearance = (
+            ndimage.distance_transform_edt(~vessel)
+            if vessel.any()
+            else np.full(vessel.shape, np.inf)
+        )
+        usable = ~vessel & (clearance >= self.settings.vessel_margin)
+        line_margin = max(self.settings.vessel_margin, EDGE_SIGMAS * line_scale_pixels(len(image)))
+        self.line_angles += line_angle_counts(
+            bright_line_normals(image, ~vessel & (clearance >= line_margin))
+        )
         windows = tissue_windows(image, usable, self.settings.patch, self.settings)
         self.window_means.append(windows.mean(axis=(1, 2)))
         self.window_variances.append(windows.var(axis=(1, 2), ddof=1))
@@ -907,6 +945,11 @@ def measure(images: ImageSet, settings: RealismSettings | None = None) -> Realis
         depth_falloff_quantiles=_quantiles(np.array(sums.falloffs)) if sums.falloffs else None,
         speckle=sums.speckle(images.dynamic_range_db),
         vessel_shapes=sums.vessel_shapes(len(images)),
+        line_angle_shares=(
+            tuple(float(c) for c in sums.line_angles / sums.line_angles.sum())
+            if sums.line_angles.any()
+            else None
+        ),
     )
 
 
@@ -1085,7 +1128,10 @@ def _report_lines(comparison: RealismComparison, sources: Mapping[str, object]) 
         "vessel, homogeneous and unclipped (the Rayleigh reference is the 5.57 dB std of "
         f"log-compressed speckle at the simulated display's {_dynamic_range(sim)} dynamic "
         "range; real images do not record theirs); grain: autocorrelation FWHM over "
-        f"{settings.grain_patch} px windows, in each set's own pixels. Vessel shapes: each "
+        f"{settings.grain_patch} px windows, in each set's own pixels. Bright lines: ridges "
+        f"of the Hessian at a sigma of {LINE_SCALE:.1%} of the imaged height, the strongest "
+        f"{LINE_SHARE:.0%} of each image's tissue clear of the vessels, by the angle of their "
+        "normal to the beam (a line across the beam: 0 degrees). Vessel shapes: each "
         f"connected vessel region of at least {settings.min_vessel_area:.2%} of its image's "
         "imaged area; aspect = sqrt of its second moments' eigenvalue ratio (length over "
         "width), area and centre depth as shares of the imaged area and height; placement: "
