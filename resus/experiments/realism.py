@@ -1006,13 +1006,14 @@ def _with_vessels(images: ImageSet, count: int) -> list[int]:
 
 def save_histograms_png(path: str | Path, comparison: RealismComparison) -> Path:
     """Both sets' grey-level histograms overlaid, bars of the table's grey figures and of the
-    lumen/tissue ratio, their depth profiles and their vessels' aspect distributions; credited."""
+    lumen/tissue ratio, their depth profiles, their vessels' aspect distributions and the
+    angles of their tissue's bright lines; credited."""
     from matplotlib.figure import Figure
 
     sets = (comparison.simulated, comparison.real)
-    figure = Figure(figsize=(23, 4.4))
-    histogram, greys, ratios, depths, aspects = figure.subplots(
-        1, 5, width_ratios=(2.2, 2.0, 0.9, 1.4, 1.6)
+    figure = Figure(figsize=(27, 4.4))
+    histogram, greys, ratios, depths, aspects, lines = figure.subplots(
+        1, 6, width_ratios=(2.2, 2.0, 0.9, 1.4, 1.6, 1.6)
     )
     for stats in sets:
         colour = SET_COLOURS.get(stats.name)
@@ -1040,6 +1041,10 @@ def save_histograms_png(path: str | Path, comparison: RealismComparison) -> Path
             shares = np.arange(1, len(ordered) + 1) / len(ordered)
             label = f"{stats.name} ({len(ordered)} vessels)"
             aspects.step(ordered, shares, where="post", color=colour, label=label)
+        if stats.line_angle_shares is not None:
+            edges = np.arange(len(stats.line_angle_shares) + 1) * ANGLE_BIN_DEGREES
+            density = np.array(stats.line_angle_shares) / ANGLE_BIN_DEGREES
+            lines.stairs(density, edges, color=colour, label=stats.name)
     greys.set_xticks(np.arange(len(figures)), [label for label, _ in figures])
     greys.set_ylim(0, GREY_LEVELS - 1)
     greys.set_ylabel("grey level")
@@ -1063,6 +1068,12 @@ def save_histograms_png(path: str | Path, comparison: RealismComparison) -> Path
     aspects.set_ylabel("share of vessel regions at or below")
     aspects.set_title("vessel shapes (dotted: flattened)")
     aspects.legend()
+    lines.set_yscale("log")
+    lines.set_xlim(0, 90)
+    lines.set_xlabel("normal to the beam (degrees; 0: a line across it)")
+    lines.set_ylabel("share of bright-line pixels per degree")
+    lines.set_title("which way the tissue's bright lines run")
+    lines.legend()
     figure.suptitle(f"simulated vs real grey levels   ({REAL_CREDIT})")
     figure.tight_layout()
     return _save(figure, Path(path), 90)
