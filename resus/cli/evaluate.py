@@ -8,7 +8,8 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from resus.cli.options import DeviceOption
-from resus.cli.parsers import flag_error
+from resus.cli.parsers import flag_error, parse_numbers
+from resus.errors import ResusError
 
 if TYPE_CHECKING:
     from resus.segmentation.folders import FolderImages
@@ -51,20 +52,31 @@ def register(app: typer.Typer) -> None:
                 "default: when the model trained with horizontal flips.",
             ),
         ] = None,
+        zooms: Annotated[
+            str | None,
+            typer.Option(
+                help="Magnifications of the network's input size to segment at and average, "
+                "comma-separated (1: the trained size alone); default: a quarter less, the "
+                "trained size and a quarter more.",
+            ),
+        ] = None,
         device: DeviceOption = "auto",
     ) -> None:
         """Segment every image, score vessel IoU and Dice against its mask, draw overlays."""
         from resus.segmentation.evaluate import evaluate_folder
         from resus.segmentation.model import resolve_device
-        from resus.segmentation.trained_model import load_ensemble, load_model
+        from resus.segmentation.trained_model import DEFAULT_ZOOMS, load_ensemble, load_model
 
         with flag_error("--device"):
             torch_device = resolve_device(device)
+        magnifications = DEFAULT_ZOOMS if zooms is None else parse_numbers(zooms, "--zooms")
+        if min(magnifications) <= 0:
+            raise ResusError(f"--zooms: magnifications must be positive, got {zooms!r}")
         with flag_error("--model"):
             trained = (
-                load_model(model[0], torch_device, mirror)
+                load_model(model[0], torch_device, mirror, magnifications)
                 if len(model) == 1
-                else load_ensemble(model, torch_device, mirror)
+                else load_ensemble(model, torch_device, mirror, magnifications)
             )
         data = read_image_folders(images, masks)
         evaluation = evaluate_folder(trained, data, out)

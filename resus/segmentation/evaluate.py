@@ -304,6 +304,7 @@ def evaluate_folder(
         "device": str(model.device),
         "image_size": model.image_size,
         "mirror": model.mirror,
+        "input_sizes": list(model.input_sizes),
         **evaluation.to_dict(),
     }
     (Path(out_dir) / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")

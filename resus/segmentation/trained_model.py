@@ -6,7 +6,8 @@ need not know the preset the model was trained with. `load_ensemble(paths)` make
 checkpoints one model (a deep ensemble): under a domain shift, such as simulated training
 images against real ones, separately trained networks err differently, and their mean class
 probabilities err less than any one of them. A model that learnt with horizontal flips also
-labels each image mirrored and averages the two (`Segmenter.mirror`,
+labels each image mirrored and averages the two (`Segmenter.mirror`), and every model
+averages its labelling at three magnifications (`Segmenter.zooms`; both explained in
 `resus.segmentation.inference`).
 """
 
@@ -26,6 +27,20 @@ from resus.segmentation.inference import predict
 from resus.segmentation.model import resolve_device
 from resus.segmentation.presets import ModelConfig, TrainingPreset
 
+DEFAULT_ZOOMS = (0.75, 1.0, 1.25)
+"""Magnifications a model's labels are averaged over by default (test-time zoom): the
+trained input size, a quarter less and a quarter more."""
+
+
+def zoomed_sizes(image_size: int, stride: int, zooms: Sequence[float]) -> tuple[int, ...]:
+    """The network input sizes for `zooms` of `image_size`: each the nearest multiple of the
+    encoder's `stride` (a U-Net's input must divide by it), at least one stride, repeats
+    dropped."""
+    if not zooms or min(zooms) <= 0:
+        raise ResusError(f"Segmenter.zooms must be positive magnifications, got {tuple(zooms)}")
+    sizes = (max(stride, stride * round(image_size * zoom / stride)) for zoom in zooms)
+    return tuple(dict.fromkeys(sizes))
+
 
 class Segmenter:
     """What labels images: its networks (one, or an ensemble's), their input size, the
@@ -37,7 +52,16 @@ class Segmenter:
     batch_size: int
     mirror: bool
     """Average each image's labelling with its left-right mirror's (test-time flips)."""
+    zooms: tuple[float, ...]
+    """Magnifications of `image_size` whose labellings are averaged (test-time zoom)."""
+    stride: int
+    """The encoder's total downsampling: every input size is a multiple of it."""
     checkpoints: tuple[Path, ...]
+
+    @property
+    def input_sizes(self) -> tuple[int, ...]:
+        """The network input sizes the images are segmented at (`zooms` of `image_size`)."""
+        return zoomed_sizes(self.image_size, self.stride, self.zooms)
 
     @property
     def device(self) -> torch.device:
@@ -70,6 +94,7 @@ class Segmenter:
                 batch_size=self.batch_size,
                 progress=progress,
                 mirror=self.mirror,
+                input_sizes=self.input_sizes,
             )
         by_shape: dict[tuple[int, ...], list[int]] = {}
         for index, image in enumerate(images):
@@ -97,9 +122,10 @@ class TrainedModel(Segmenter):
         config: dict,
         path: Path | None = None,
         mirror: bool | None = None,
+        zooms: Sequence[float] = DEFAULT_ZOOMS,
     ) -> None:
         """`mirror` None: mirror when the network learnt with horizontal flips
-        (`learnt_mirrors`)."""
+        (`learnt_mirrors`); `zooms`: (1.0,) for the trained input size alone."""
         self.network = network.eval()
         self.networks = (self.network,)
         self.config = config
@@ -107,8 +133,12 @@ class TrainedModel(Segmenter):
         self.path = path
         """The checkpoint file it came from, if any."""
         self.checkpoints = () if path is None else (Path(path),)
-        self.image_size = ModelConfig.from_dict(config["model"]).image_size
+        architecture = ModelConfig.from_dict(config["model"])
+        self.image_size = architecture.image_size
         """Side of the square input the network was trained at."""
+        self.stride = 2**architecture.encoder_depth
+        self.zooms = tuple(float(zoom) for zoom in zooms)
+        zoomed_sizes(self.image_size, self.stride, self.zooms)  # refuses bad zooms here
         self.batch_size = int(
             config.get("preset", {}).get(
                 "evaluation_batch_size", TrainingPreset.evaluation_batch_size
@@ -127,14 +157,17 @@ def learnt_mirrors(config: dict) -> bool:
 
 
 def load_model(
-    path: Path, device: str | torch.device | None = "auto", mirror: bool | None = None
+    path: Path,
+    device: str | torch.device | None = "auto",
+    mirror: bool | None = None,
+    zooms: Sequence[float] = DEFAULT_ZOOMS,
 ) -> TrainedModel:
     """The model saved at `path` (a `resus.segmentation-checkpoint/1` file) on `device`
     ("auto": CUDA when present, else the CPU). `mirror` None: as the network learnt
-    (`learnt_mirrors`)."""
+    (`learnt_mirrors`); `zooms` as `TrainedModel`."""
     torch_device = device if isinstance(device, torch.device) else resolve_device(device)
     network, config = load_checkpoint(Path(path), torch_device)
-    return TrainedModel(network, config, Path(path), mirror)
+    return TrainedModel(network, config, Path(path), mirror, zooms)
 
 
 class ModelEnsemble(Segmenter):
@@ -152,12 +185,20 @@ class ModelEnsemble(Segmenter):
         self.image_size = sizes[0]
         self.batch_size = min(member.batch_size for member in members)
         self.mirror = all(member.mirror for member in members)
+        zooms = sorted({member.zooms for member in members})
+        if len(zooms) > 1:
+            raise ResusError(f"ModelEnsemble.members must share one set of zooms, got {zooms}")
+        self.zooms = zooms[0]
+        self.stride = max(member.stride for member in members)  # powers of two: the multiple
         self.checkpoints = tuple(path for member in members for path in member.checkpoints)
 
 
 def load_ensemble(
-    paths: Sequence[Path], device: str | torch.device | None = "auto", mirror: bool | None = None
+    paths: Sequence[Path],
+    device: str | torch.device | None = "auto",
+    mirror: bool | None = None,
+    zooms: Sequence[float] = DEFAULT_ZOOMS,
 ) -> ModelEnsemble:
     """The models saved at `paths` as one ensemble on `device` (as `load_model`)."""
     torch_device = device if isinstance(device, torch.device) else resolve_device(device)
-    return ModelEnsemble([load_model(path, torch_device, mirror) for path in paths])
+    return ModelEnsemble([load_model(path, torch_device, mirror, zooms) for path in paths])

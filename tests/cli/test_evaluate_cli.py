@@ -65,6 +65,7 @@ def test_evaluate_scores_a_folder_and_writes_metrics_and_overlays(data, monkeypa
     assert metrics["pooled"]["vessel"]["iou"] == pytest.approx(vessel / pixels)
     assert metrics["both_empty"] == {"vessel": 0}  # the model finds vessel everywhere
     assert metrics["mirror"] is False  # the tiny model never trained with flips
+    assert metrics["input_sizes"] == [48, 64, 80]  # zoomed a quarter either way by default
     assert [row["name"] for row in metrics["per_image"]] == list(SAMPLES)
     for name, (_, (rows, columns), band) in SAMPLES.items():
         row = next(r for r in metrics["per_image"] if r["name"] == name)["vessel"]
@@ -78,11 +79,13 @@ def test_a_repeated_model_flag_scores_the_checkpoints_as_one_ensemble(data, monk
     tiny_checkpoint(data / "b.pt", logits=(3.0, 0.0, 0.0))  # background, softmax 0.909
     arguments = ["--model", data / "a.pt", "--model", data / "b.pt", "--images", data / "images"]
     arguments += ["--masks", data / "masks", "--out", data / "e", "--device", "cpu", "--mirror"]
+    arguments += ["--zooms", "1"]
     status, _, stderr = run_main(monkeypatch, capsys, "evaluate", *arguments)
     assert status == 0, stderr
     metrics = json.loads((data / "e" / "metrics.json").read_text())
     assert metrics["checkpoints"] == [str(data / "a.pt"), str(data / "b.pt")]
     assert metrics["mirror"] is True  # as --mirror asks
+    assert metrics["input_sizes"] == [64]  # as --zooms 1 asks
     # mean softmax: background 0.507, artery 0.416: no vessel anywhere
     assert metrics["pooled"]["vessel"]["intersection"] == 0
     assert metrics["both_empty"] == {"vessel": 1}  # 0001 shows none and gets none
@@ -120,6 +123,8 @@ def test_bad_flags_and_folders_are_one_error_line(data, monkeypatch, capsys):
     one_line_error(evaluate(masks=data / "empty"), "--masks: ", "empty: holds no PNG files")
     one_line_error(evaluate(model=data / "none.pt"), "--model: ", "checkpoint not found")
     one_line_error(evaluate(device="gpu0"), "--device: ", "not a torch device")
+    one_line_error(evaluate(zooms="0.75,big"), "--zooms: expected a list of comma-separated")
+    one_line_error(evaluate(zooms="0,1"), "--zooms: magnifications must be positive")
     Image.fromarray(np.zeros((40, 41), np.uint8)).save(data / "masks" / "0003.png")
     one_line_error(evaluate(), "0003.png: 41x40, but its image ", "0003.png is 40x40")
     assert not (data / "o" / "metrics.json").exists()

@@ -20,8 +20,10 @@ from resus.segmentation.evaluate import (
     score_labels,
 )
 from resus.segmentation.folders import read_folders
-from resus.segmentation.inference import class_scores, predict
+from resus.segmentation.data import images_to_tensor, resize_images
+from resus.segmentation.inference import class_argmax, class_scores, predict
 from resus.segmentation.presets import QUICK
+from resus.segmentation.trained_model import DEFAULT_ZOOMS, ModelEnsemble, zoomed_sizes
 from sim.labels import ARTERY, VEIN, label_colour
 
 torch.set_num_threads(1)  # one per pytest-xdist worker: more oversubscribes the 2 cores
@@ -116,7 +118,8 @@ def test_load_model_predicts_arrays_single_images_and_lists(tmp_path) -> None:
     stack = rng.integers(0, 256, (3, 40, 52), dtype=np.uint8)
     labels = model.predict(stack)
     assert labels.shape == stack.shape and labels.dtype == np.uint8 and labels.max() <= VEIN
-    np.testing.assert_array_equal(labels, predict(network, stack, image_size=64))
+    expected = predict(network, stack, image_size=64, input_sizes=model.input_sizes)
+    np.testing.assert_array_equal(labels, expected)
     np.testing.assert_array_equal(model.predict(stack[1]), labels[1])
     mixed = [stack[0], rng.integers(0, 256, (30, 30), dtype=np.uint8), stack[2]]
     listed = model.predict(mixed)
@@ -185,6 +188,42 @@ def test_a_model_mirrors_when_it_learnt_with_horizontal_flips(tmp_path) -> None:
     paths = [tmp_path / "flips.pt", tmp_path / "us.pt"]
     assert not load_ensemble(paths, "cpu").mirror  # only when every member learnt both sides
     assert load_ensemble(paths[:1] * 2, "cpu").mirror
+
+
+def test_zoomed_sizes_are_multiples_of_the_stride_around_the_trained_size() -> None:
+    assert zoomed_sizes(128, 16, DEFAULT_ZOOMS) == (96, 128, 160)
+    assert zoomed_sizes(64, 8, DEFAULT_ZOOMS) == (48, 64, 80)
+    assert zoomed_sizes(128, 16, (1.0, 0.99, 0.05)) == (128, 16)  # repeats dropped, >= stride
+    for bad in ((), (0.0, 1.0), (-1.0,)):
+        with pytest.raises(ResusError, match="Segmenter.zooms must be positive"):
+            zoomed_sizes(128, 16, bad)
+
+
+def test_zooming_averages_the_probabilities_of_each_input_size(tmp_path) -> None:
+    """`predict` with several input sizes labels by the sum of each size's class
+    probabilities resized to the image, computed here by hand; one size is the plain path."""
+    network = tiny_checkpoint(tmp_path / "tiny.pt")
+    images = np.random.default_rng(4).integers(0, 256, (3, 30, 44), dtype=np.uint8)
+    sizes = (48, 64, 80)
+    total = torch.zeros(())
+    for size in sizes:
+        inputs = images_to_tensor(resize_images(images, size))
+        with torch.no_grad():
+            probabilities = torch.softmax(network(inputs), dim=1)
+        total = total + nn.functional.interpolate(probabilities, size=(30, 44), mode="bilinear")
+    expected = class_argmax(total).numpy()
+    zoomed = predict(network, images, image_size=64, input_sizes=sizes)
+    np.testing.assert_array_equal(zoomed, expected)
+    plain = predict(network, images, image_size=64)
+    np.testing.assert_array_equal(predict(network, images, image_size=64, input_sizes=[64]), plain)
+    assert not np.array_equal(zoomed, plain)  # an untrained network answers each size apart
+    model = load_model(tmp_path / "tiny.pt", "cpu")
+    assert model.zooms == DEFAULT_ZOOMS and model.input_sizes == sizes  # QUICK: stride 8
+    np.testing.assert_array_equal(model.predict(images), zoomed)
+    single = load_model(tmp_path / "tiny.pt", "cpu", zooms=(1.0,))
+    np.testing.assert_array_equal(single.predict(images), plain)
+    with pytest.raises(ResusError, match="must share one set of zooms"):
+        ModelEnsemble([model, single])
 
 
 def test_overlay_tints_the_prediction_and_outlines_the_truth() -> None:
