@@ -13,6 +13,7 @@ from torch import nn
 from resus.errors import ResusError
 from resus.segmentation import load_ensemble, load_model
 from resus.segmentation.checkpoint import save_checkpoint
+from resus.segmentation.data import images_to_tensor, resize_images
 from resus.segmentation.evaluate import (
     TRUTH_COLOUR,
     evaluate_folder,
@@ -20,7 +21,6 @@ from resus.segmentation.evaluate import (
     score_labels,
 )
 from resus.segmentation.folders import read_folders
-from resus.segmentation.data import images_to_tensor, resize_images
 from resus.segmentation.inference import class_argmax, class_scores, predict
 from resus.segmentation.presets import QUICK
 from resus.segmentation.trained_model import DEFAULT_ZOOMS, ModelEnsemble, zoomed_sizes
@@ -195,7 +195,7 @@ def test_zoomed_sizes_are_multiples_of_the_stride_around_the_trained_size() -> N
     assert zoomed_sizes(64, 8, DEFAULT_ZOOMS) == (48, 64, 80)
     assert zoomed_sizes(128, 16, (1.0, 0.99, 0.05)) == (128, 16)  # repeats dropped, >= stride
     for bad in ((), (0.0, 1.0), (-1.0,)):
-        with pytest.raises(ResusError, match="Segmenter.zooms must be positive"):
+        with pytest.raises(ResusError, match=r"Segmenter\.zooms must be positive"):
             zoomed_sizes(128, 16, bad)
 
 
