@@ -75,13 +75,14 @@ def predict(
     starts = range(0, count, batch_size)
     for start in tqdm(starts, desc="segment", unit="batch", disable=not progress):
         batch = np.asarray(images[start : start + batch_size])
-        total = torch.zeros((), device=device)
-        for size in sizes:  # a sum of probabilities: its arg-max is the mean's
+        total: torch.Tensor | None = None  # a sum of probabilities: its arg-max is the mean's
+        for size in sizes:
             inputs = images_to_tensor(resize_images(batch, size)).to(device)
             scores = class_scores(models, inputs, mirror=mirror, probabilities=len(sizes) > 1)
             if (height, width) != (size, size):
                 scores = nn.functional.interpolate(scores, size=(height, width), mode="bilinear")
-            total = total + scores
+            total = scores if total is None else total + scores
+        assert total is not None  # sizes is not empty
         labels[start : start + len(batch)] = class_argmax(total).cpu().numpy()
     for member, mode in zip(models, was_training, strict=True):
         member.train(mode)
