@@ -17,8 +17,10 @@ Four small laws, each a textbook model with its parameters in `TissueMechanics`:
   rise over the first 15 % of the cycle, then an exponential run-off (`cardiac_waveform`).
 - **Bulk compression.** The skin follows the indented face, and the tissue under it is
   compressed along the beam: a point at undeformed depth D moves by `indentation * exp(-D /
-  compression_length)` (`tissue_shift`; `undeformed_depths` inverts that map). A vessel
-  moves with the tissue at its centre and keeps the shape its own law gives it.
+  compression_length)` (`tissue_shift`; `bulk_row_shifts` inverts that map). A negative
+  indentation (the skin below the face, drawn up to it) moves the tissue towards the face
+  by the same law. A vessel moves with the tissue at its centre and keeps the shape its own
+  law gives it.
 """
 
 from __future__ import annotations
@@ -212,40 +214,43 @@ def tissue_shift(
 ) -> np.ndarray:
     """How far (m) the tissue at `undeformed_depth` below the skin moved along the beam from
     where it lay before the face sank `indentation` in: all of it at the skin, decaying over
-    `length` (an indentation beyond `MAX_COMPRESSION_STRAIN * length` moves the tissue
-    rigidly by the excess). It then lies `depth - indentation + shift` below the face."""
-    compressed = min(max(indentation, 0.0), MAX_COMPRESSION_STRAIN * length)
+    `length` (an indentation beyond `MAX_COMPRESSION_STRAIN * length`, either way, moves the
+    tissue rigidly by the excess; a negative one moves it towards the face). It then lies
+    `depth - indentation + shift` below the face."""
+    limit = MAX_COMPRESSION_STRAIN * length
+    compressed = min(max(indentation, -limit), limit)
     depth = np.asarray(undeformed_depth, dtype=np.float64)
-    return (max(indentation, 0.0) - compressed) + compressed * np.exp(-depth / length)
+    return (indentation - compressed) + compressed * np.exp(-depth / length)
 
 
-def undeformed_depths(depths: np.ndarray, indentation: float, length: float) -> np.ndarray:
-    """Undeformed depth below the skin (m) of the tissue seen at `depths` below the face.
-
-    A point at undeformed depth D sits at D - indentation + indentation * exp(-D / length)
-    below the face: the skin (D = 0) on the face, deep tissue shifted by the indentation.
-    Newton's method on that strictly increasing map, from D = depth. An indentation beyond
-    `MAX_COMPRESSION_STRAIN * length` compresses as that much (the map would fold), the rest
-    shifting the tissue rigidly.
-    """
-    depths = np.asarray(depths, dtype=np.float64)
-    indentation = min(indentation, MAX_COMPRESSION_STRAIN * length)
-    if indentation <= 0:
-        return depths.copy()
-    return _invert_compression(np.ascontiguousarray(depths).ravel(), indentation, length).reshape(
-        depths.shape
-    )
+NEWTON_TOLERANCE = 1e-13
+"""Newton's method in `bulk_row_shifts` stops at a step shorter than this (m)."""
 
 
 @numba.njit(cache=True)
-def _invert_compression(depths: np.ndarray, indentation: float, length: float) -> np.ndarray:
-    """Newton's method for `undeformed_depths`, per depth, from D = depth (eight steps)."""
-    out = np.empty(depths.shape[0])
+def bulk_row_shifts(depths: np.ndarray, indentation: float, length: float) -> np.ndarray:
+    """How far (m) along the beam the tissue seen at each of `depths` (1-D, ascending, m
+    below the face) moved when the face sank `indentation` in: `tissue_shift` at the
+    tissue's undeformed depth D, where D - indentation + indentation * exp(-D / length) is
+    the depth seen (the skin, D = 0, on the face; deep tissue shifted by the indentation,
+    towards the face when it is negative: the skin drawn up to the face).
+
+    Newton's method on that strictly increasing map, each depth started from the previous
+    one's answer moved by the step between them (two or three steps for neighbouring
+    pixels; at most eight). An indentation beyond `MAX_COMPRESSION_STRAIN * length`, either
+    way, compresses as that much (the map would fold), the rest shifting the tissue rigidly.
+    """
+    limit = MAX_COMPRESSION_STRAIN * length
+    compressed = min(max(indentation, -limit), limit)
+    shifts = np.empty(depths.shape[0])
+    undeformed = 0.0
     for p in range(depths.shape[0]):
-        undeformed = depths[p]
+        undeformed = depths[p] if p == 0 else max(undeformed + depths[p] - depths[p - 1], 0.0)
         for _ in range(8):
-            decay = indentation * math.exp(-undeformed / length)
-            residual = undeformed - indentation + decay - depths[p]
-            undeformed = undeformed - residual / (1.0 - decay / length)
-        out[p] = undeformed
-    return out
+            decay = compressed * math.exp(-undeformed / length)
+            step = (undeformed - compressed + decay - depths[p]) / (1.0 - decay / length)
+            undeformed -= step
+            if abs(step) < NEWTON_TOLERANCE:
+                break
+        shifts[p] = depths[p] - (undeformed - indentation)
+    return shifts

@@ -185,13 +185,17 @@ class UltrasoundSimulator:
         self.last_deformation: FrameDeformation | None = None
         """The deformation of the last frame rendered deformed (None: rigid)."""
 
-    def contact(self, probe_to_phantom: np.ndarray) -> np.ndarray:
+    def contact(
+        self, probe_to_phantom: np.ndarray, deformation: FrameDeformation | None = None
+    ) -> np.ndarray:
         """(cols,) bool: whether each column's transducer element touches the skin (gel gap
-        within `contact_tolerance`, measured along the phantom's z) and has not lost its
-        coupling (`lost_coupling`)."""
+        within `contact_tolerance`, measured along the phantom's z; less the skin drawn up to
+        the face by `deformation`) and has not lost its coupling (`lost_coupling`)."""
         elements = probe_to_phantom[:3, 0:1] * self._element_x + probe_to_phantom[:3, 3:4]
         with np.errstate(invalid="ignore"):
             gap = elements[2] - self.phantom.skin_height(elements[0], elements[1])
+            if deformation is not None:
+                gap += np.minimum(deformation.column_indentation, 0.0)
             return (gap <= self.settings.contact_tolerance) & self._coupled
 
     def _scan(
@@ -317,7 +321,7 @@ class UltrasoundSimulator:
         self.last_deformation = None
         if load is not None and self.deformation is not None:
             self.last_deformation = self.deformation.frame(pose, load)
-        contact = self.contact(pose)
+        contact = self.contact(pose, self.last_deformation)
         coupling = aperture_coupling(contact, self._aperture_half_cols)
         frame_key = np.uint32(zlib.crc32(pose.tobytes(), int(self._seed)))
         if len(self._steering) == 1:

@@ -21,14 +21,16 @@ from sim.phantom.mechanics import (
     PASCAL_PER_MMHG,
     SYSTOLE_FRACTION,
     TissueMechanics,
+    bulk_row_shifts,
     cardiac_waveform,
     ellipse_perimeter,
     face_stress_fraction,
     perimeter_keeping_major,
-    undeformed_depths,
+    tissue_shift,
 )
-from sim.ultrasound.deformation import TissueLoad
+from sim.ultrasound.deformation import TissueLoad, column_row_shifts
 from sim.ultrasound.probe import LinearProbe
+from sim.ultrasound.settings import UltrasoundSettings
 from sim.ultrasound.simulator import UltrasoundSimulator
 from sim.ultrasound.skin_pose import probe_pose_on_skin
 
@@ -142,12 +144,31 @@ def test_cardiac_waveform_rises_in_systole_and_runs_off_to_zero():
     assert np.abs(np.diff(wave)).max() < 0.01  # continuous, no jump at the cycle's end
 
 
-def test_undeformed_depths_invert_the_compression():
+@pytest.mark.parametrize("indentation", [0.004, -0.003, 0.0, 0.02])
+def test_bulk_row_shifts_invert_the_compression_either_way(indentation):
+    """Pressed in (the skin sinks with the face), drawn up (the skin rises to it) or not at
+    all: the tissue each depth shows came from D = depth + indentation - shift, and the
+    forward law `tissue_shift` takes D back to that depth; the skin lands on the face. 20 mm
+    is past the strain cap (16 mm on 20): the excess moves the tissue rigidly."""
     depths = np.linspace(0.0, 0.04, 50)
-    undeformed = undeformed_depths(depths, 0.004, 0.02)
-    forward = undeformed - 0.004 + 0.004 * np.exp(-undeformed / 0.02)
+    shifts = bulk_row_shifts(depths, indentation, 0.02)
+    undeformed = depths + indentation - shifts
+    forward = undeformed - indentation + tissue_shift(undeformed, indentation, 0.02)
     assert forward == pytest.approx(depths, abs=1e-12)
     assert undeformed[0] == pytest.approx(0.0, abs=1e-12)
+    assert np.all(np.diff(undeformed) > 0)
+
+
+def test_column_row_shifts_interpolate_the_exact_inversion_within_a_micrometre():
+    """Columns sunk between -1.5 and +2.5 mm (a pressed face on a curved skin): each column's
+    shifts within 1 um of inverting the compression for that column alone."""
+    depths = (np.arange(256) + 0.5) * 0.04 / 256
+    columns = 0.0025 - 0.004 * np.linspace(-1.0, 1.0, 128) ** 2
+    interpolated = column_row_shifts(depths, columns, 0.02)
+    exact = np.array([bulk_row_shifts(depths, sunk, 0.02) for sunk in columns])
+    assert np.abs(interpolated - exact).max() < 1e-6
+    flat = column_row_shifts(depths, np.full(4, 0.002), 0.02)
+    np.testing.assert_array_equal(flat, np.tile(bulk_row_shifts(depths, 0.002, 0.02), (4, 1)))
 
 
 @pytest.mark.parametrize(
@@ -302,6 +323,55 @@ def test_an_unloaded_deformable_phantom_images_as_the_rigid_one(simulator, gel_b
     assert np.array_equal(labels, rigid_labels)
     difference = np.abs(image.astype(int) - rigid_image)
     assert difference.max() <= 2 and difference.mean() < 0.05
+
+
+CURVED_PROBE = LinearProbe(width=0.038, depth=0.02, cols=128, rows=128)
+QUIET = UltrasoundSettings(electronic_noise_db=-80.0)
+
+
+def top_gel_rows(image: np.ndarray) -> np.ndarray:
+    """(cols,) how many black rows (gel, nothing to echo) each column starts with."""
+    return np.argmax(image > 0, axis=0)
+
+
+@pytest.fixture(scope="module")
+def thigh() -> UltrasoundSimulator:
+    """The femoral phantom's nominal thigh (a cylinder of radius 110 mm) with its mechanics."""
+    return UltrasoundSimulator(Phantom(load_phantom("femoral")), CURVED_PROBE, QUIET)
+
+
+def test_each_column_sinks_by_the_faces_penetration_of_the_curved_skin(thigh):
+    """On a cylinder of radius R, a flat face pressed d at its middle penetrates
+    d - (R - sqrt(R^2 - x^2)) at x across it; where that is negative the skin is drawn up
+    to the face by at most the deepest penetration (d, less the half column's sagitta)."""
+    radius = thigh.phantom.spec.body.radius
+    for pressed in (0.002, 0.0005):
+        pose = probe_pose_on_skin(thigh.phantom, 0.0, 0.0, lift=-pressed)
+        x = (np.arange(CURVED_PROBE.cols) - (CURVED_PROBE.cols - 1) / 2) * CURVED_PROBE.pixel_width
+        penetration = pressed - (radius - np.sqrt(radius**2 - x**2))
+        expected = np.maximum(penetration, -penetration.max())
+        got = thigh.deformation.column_indentation(pose)
+        np.testing.assert_allclose(got, expected, atol=1e-9)
+
+
+def test_a_pressed_flat_face_images_the_curved_skin_flat(thigh):
+    """Held at the skin, the face's edges stand R - sqrt(R^2 - x^2) above the thigh (1.6 mm
+    at the ends): columns beyond the gel's `contact_tolerance` stay black, in the rigid
+    image and in an unpressed deformed one alike. Pressed 2 mm, the skin follows the face
+    across its width: every column touches and starts at the skin."""
+    radius = thigh.phantom.spec.body.radius
+    x = (np.arange(CURVED_PROBE.cols) - (CURVED_PROBE.cols - 1) / 2) * CURVED_PROBE.pixel_width
+    coupled = radius - np.sqrt(radius**2 - x**2) <= QUIET.contact_tolerance + 1e-9
+    assert 0 < coupled.sum() < CURVED_PROBE.cols
+    touching = probe_pose_on_skin(thigh.phantom, 0.0, 0.0)
+    for load in (None, TissueLoad(0.5, 0.0)):
+        image = thigh.render(touching, load)[0]
+        np.testing.assert_array_equal(thigh.contact(touching, thigh.last_deformation), coupled)
+        assert image[:, ~coupled].max() == 0 and image[:, coupled].max() > 0
+    pressed = probe_pose_on_skin(thigh.phantom, 0.0, 0.0, lift=-0.002)
+    image = thigh.render(pressed, TissueLoad(3.0, 0.0))[0]
+    assert thigh.contact(pressed, thigh.last_deformation).all()
+    assert top_gel_rows(image).max() <= 1
 
 
 def test_speckle_moves_with_the_compressed_tissue(simulator):
