@@ -138,7 +138,7 @@ class ProbeDeformation:
         self._face_area = probe.width * probe.face_thickness
         self._face_x = np.linspace(-probe.width / 2, probe.width / 2, 9)
         """Where `indentation` measures along the face's centre line."""
-        self._element_x = (np.arange(probe.cols) - (probe.cols - 1) / 2) * probe.pixel_width
+        self._element_x = probe.column_x()
         """Each image column's element, across the face (m)."""
 
     def indentation(self, probe_to_phantom: np.ndarray) -> float:
@@ -312,18 +312,17 @@ def column_row_shifts(depths: np.ndarray, columns: np.ndarray, length: float) ->
     interpolation is off by well under a micrometre, tested), at a fraction of the cost of
     inverting the compression for every column."""
     low, high = columns.min(), columns.max()
-    levels = INDENTATION_LEVELS if high > low else 1
-    spacing = (high - low) / max(levels - 1, 1)
-    shifts = np.empty((levels, depths.shape[0]))
-    for k in range(levels):
-        shifts[k] = bulk_row_shifts(depths, low + k * spacing, length)
     out = np.empty((columns.shape[0], depths.shape[0]))
+    if high == low:  # every column sunk alike: one inversion
+        out[:] = bulk_row_shifts(depths, low, length)
+        return out
+    spacing = (high - low) / (INDENTATION_LEVELS - 1)
+    shifts = np.empty((INDENTATION_LEVELS, depths.shape[0]))
+    for k in range(INDENTATION_LEVELS):
+        shifts[k] = bulk_row_shifts(depths, low + k * spacing, length)
     for col in range(columns.shape[0]):
-        if levels == 1:
-            out[col] = shifts[0]
-            continue
         position = (columns[col] - low) / spacing
-        below = min(int(position), levels - 2)
+        below = min(int(position), INDENTATION_LEVELS - 2)
         above = position - below
         for row in range(depths.shape[0]):
             out[col, row] = (1.0 - above) * shifts[below, row] + above * shifts[below + 1, row]

@@ -54,6 +54,11 @@ class LinearProbe:
         """Axial pixel spacing (m)."""
         return self.depth / self.rows
 
+    def column_x(self) -> np.ndarray:
+        """(cols,) lateral position (m) of each image column's centre, its element, across
+        the face."""
+        return (np.arange(self.cols) - (self.cols - 1) / 2) * self.pixel_width
+
     def image_to_probe(self) -> np.ndarray:
         """4x4 calibration mapping `(col, row, 0, 1)` to the probe frame in metres."""
         sx, sz = self.pixel_width, self.pixel_height

@@ -162,7 +162,7 @@ class UltrasoundSimulator:
         self._aperture_half_cols = max(1, round(settings.active_aperture / probe.pixel_width / 2))
         self._clutter = np.zeros(probe.cols * probe.rows, dtype=np.float32)
         self._clutter_sums = np.empty((probe.cols + 1, probe.rows), dtype=np.float32)
-        self._element_x = (np.arange(probe.cols) - (probe.cols - 1) / 2) * probe.pixel_width
+        self._element_x = probe.column_x()
         lost_first, lost_last = (round(share * probe.cols) for share in settings.lost_coupling)
         self._coupled = np.ones(probe.cols, dtype=bool)
         self._coupled[:lost_first] = False
