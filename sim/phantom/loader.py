@@ -6,8 +6,9 @@ either `anatomy` (parameters of `FemoralAnatomy`, from which the femoral vessels
 femur, lymph nodes, muscle bellies and the femoral nerve are built) or explicit `vessels` and
 `bones` lists (name, label, control_points, radii, wall_thickness); or `extends: NAME` and
 only what differs from that spec. `mechanics` (optional) makes the tissue deform under the
-probe (`TissueMechanics`). `variation` holds the subject generator's ranges. Every problem is
-reported as one ValueError naming the file.
+probe (`TissueMechanics`), `layer_waves` (optional) the layers' boundaries wave
+(`LayerWaves`). `variation` holds the subject generator's ranges. Every problem is reported as
+one ValueError naming the file.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from sim.phantom.anatomy import (
     build_nodes,
     build_vessels,
 )
+from sim.phantom.layer_waves import LayerWaves
 from sim.phantom.mechanics import TissueMechanics
 from sim.phantom.spec import (
     DEFAULT_TEXTURE_SCALE,
@@ -36,6 +38,7 @@ from sim.phantom.spec import (
     Layer,
     Material,
     PhantomSpec,
+    SubjectParameters,
     Variation,
     VesselSpec,
 )
@@ -43,11 +46,11 @@ from sim.phantom.spec import (
 SCALE_KEYS = ("layer_thickness_scale", "echogenicity_scale", "noise_level")
 """Variation keys that are not anatomy parameters."""
 ANATOMY_KEYS = tuple(f.name for f in dataclasses.fields(FemoralAnatomy))
-MECHANICS_KEYS = TissueMechanics.keys()
+PARAMETER_KEYS = (*TissueMechanics.keys(), *LayerWaves.keys())
 TOP_KEYS = {
     "name", "description", "side", "seed", "noise_level", "body", "layers", "blood", "wall",
     "bone", "node", "muscle", "nerve", "fascicle", "anatomy", "vessels", "bones", "variation",
-    "texture_scale", "mechanics",
+    "texture_scale", "mechanics", "layer_waves",
 }  # fmt: skip
 MATERIAL_KEYS = ("name", "echogenicity", "attenuation_db_cm_mhz", "impedance_mrayl")
 TEXTURE_KEYS = ("texture_variation", "texture_ridges")
@@ -128,7 +131,7 @@ def _variation(value: Any) -> Variation:
     fields = _mapping(value or {}, "variation", ("ranges", "min_gap", "max_attempts"))
     ranges = {}
     for key, bounds in _mapping(
-        fields.get("ranges", {}), "variation.ranges", (*ANATOMY_KEYS, *MECHANICS_KEYS, *SCALE_KEYS)
+        fields.get("ranges", {}), "variation.ranges", (*ANATOMY_KEYS, *PARAMETER_KEYS, *SCALE_KEYS)
     ).items():
         if not (isinstance(bounds, list) and len(bounds) == 2 and bounds[0] <= bounds[1]):
             raise ValueError(f"variation.ranges.{key} must be [low, high] with low <= high")
@@ -145,12 +148,12 @@ def _texture_scale(value: Any) -> tuple[float, float, float]:
     return float(value[0]), float(value[1]), float(value[2])
 
 
-def _mechanics(value: Any) -> TissueMechanics | None:
-    """`mechanics: {NAME: value, ...}` (`TissueMechanics` fields, defaults for the rest)."""
+def _parameters(value: Any, what: str, kind: type[SubjectParameters]) -> SubjectParameters | None:
+    """`WHAT: {NAME: value, ...}`: `kind`'s fields (floats), its defaults for the rest."""
     if value is None:
         return None
-    fields = _mapping(value, "mechanics", MECHANICS_KEYS)
-    return TissueMechanics(**{key: float(number) for key, number in fields.items()})
+    fields = _mapping(value, what, kind.keys())
+    return kind(**{key: float(number) for key, number in fields.items()})
 
 
 def spec_from_mapping(data: Any) -> PhantomSpec:
@@ -202,7 +205,8 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         seed=int(data.get("seed", 0)),
         variation=_variation(data.get("variation")),
         anatomy=anatomy,
-        mechanics=_mechanics(data.get("mechanics")),
+        mechanics=_parameters(data.get("mechanics"), "mechanics", TissueMechanics),
+        layer_waves=_parameters(data.get("layer_waves"), "layer_waves", LayerWaves),
     )
 
 

@@ -14,6 +14,7 @@ import trimesh
 
 from sim.phantom import body as body_shape
 from sim.phantom.centreline import SegmentChain, sample_tube
+from sim.phantom.layer_waves import LayerWaves
 from sim.phantom.meshing import body_mesh, tube_mesh
 from sim.phantom.sample_kernels import label_points, sample_points
 from sim.phantom.spec import ARTERY, VEIN, Material, PhantomSpec, VesselSpec
@@ -84,6 +85,8 @@ class Phantom:
         self.materials: tuple[Material, ...] = tuple(materials)
         self._body_kind, self._body_params = body_shape.body_parameters(spec.body)
         self._layer_bottoms = np.cumsum([layer.thickness for layer in spec.layers[:-1]])
+        waves = spec.layer_waves or LayerWaves()
+        self._layer_waves = (waves.waves(), waves.wave_taper_depth, waves.wave_amplitude)
         self._vessel_indexes: dict[float, TubeIndex] = {}
 
     def _vessel_index_within(self, search_radius: float) -> TubeIndex:
@@ -169,6 +172,7 @@ class Phantom:
             self._body_kind,
             self._body_params,
             self._layer_bottoms,
+            *self._layer_waves,
             self._blood_index,
             vessels.kernel_grid(),
             vessels.chain.tube,

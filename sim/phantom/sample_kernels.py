@@ -6,6 +6,7 @@ import numpy as np
 from numba import njit, prange
 
 from sim.phantom.body import depth_below_skin, inside_body
+from sim.phantom.layer_waves import layer_at
 from sim.phantom.tube_kernels import (
     INSIDE,
     OUTSIDE,
@@ -53,6 +54,9 @@ def sample_points(
     body_kind,
     body_params,
     layer_bottoms,
+    layer_waves,
+    wave_taper_depth,
+    wave_reach,
     blood_index,
     vessels,
     segment_tube,
@@ -86,7 +90,8 @@ def sample_points(
     vessels' within `cutoff`; each structure's `*_mark` is 1 per segment. A point in a vessel's
     lumen is blood, else in bone bone, else in a lymph node node, else in the nerve nerve (or
     fascicle, in one of its fascicles), else in a muscle belly muscle, else the layer at its
-    depth (a material index of -1 means none of that kind exists).
+    depth, its boundaries moved by `layer_waves` (`layer_waves.layer_at`; a material index of -1
+    means none of that kind exists).
     """
     for p in prange(points.shape[0]):
         x, y, z = points[p, 0], points[p, 1], points[p, 2]
@@ -109,10 +114,9 @@ def sample_points(
                 label[p] = segment_label[s]
                 material[p] = blood_index
             else:
-                layer = 0
-                while layer < layer_bottoms.shape[0] and depth[p] > layer_bottoms[layer]:
-                    layer += 1
-                material[p] = layer
+                material[p] = layer_at(
+                    depth[p], x, y, layer_bottoms, layer_waves, wave_taper_depth, wave_reach
+                )
                 if bone_index >= 0 and inside_label(x, y, z, bones, bone_mark) > 0:
                     material[p] = bone_index
                 elif node_index >= 0 and inside_label(x, y, z, nodes, node_mark) > 0:

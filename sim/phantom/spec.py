@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
 from sim.labels import ARTERY, VEIN
+from sim.phantom.layer_waves import LayerWaves
 from sim.phantom.mechanics import TissueMechanics
 
 if TYPE_CHECKING:
@@ -24,6 +25,8 @@ BODY_KINDS = ("block", "leg")
 DEFAULT_TEXTURE_SCALE = (2.5e-3, 8.0e-3, 1.5e-3)
 """Texture lattice spacing (m) along x, y, z (see `PhantomSpec.texture_scale`)."""
 SIDES = ("right", "left")
+SubjectParameters = TypeVar("SubjectParameters", TissueMechanics, LayerWaves)
+"""A spec's parameter groups that subjects draw from generators of their own."""
 CENTIMETRES_PER_METRE = 100.0
 """Attenuation is given per centimetre (dB/cm/MHz), lengths in metres."""
 
@@ -147,9 +150,10 @@ class VesselSpec:
 class Variation:
     """How subjects differ: uniform ranges `[low, high]` per varied quantity.
 
-    Keys are `FemoralAnatomy` and `TissueMechanics` field names, plus `layer_thickness_scale`
-    and `echogenicity_scale` (independent factor per layer) and `noise_level`. `min_gap` is the
-    smallest allowed gap between artery and vein walls (and between vessels and bone).
+    Keys are `FemoralAnatomy`, `TissueMechanics` and `LayerWaves` field names, plus
+    `layer_thickness_scale` and `echogenicity_scale` (independent factor per layer) and
+    `noise_level`. `min_gap` is the smallest allowed gap between artery and vein walls (and
+    between vessels and bone).
     """
 
     ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
@@ -196,6 +200,9 @@ class PhantomSpec:
     """The parameters the vessels were built from; `make_subject` varies them."""
     mechanics: TissueMechanics | None = None
     """How the tissue deforms under the probe and pulses with the heart; None: rigid."""
+    layer_waves: LayerWaves | None = None
+    """How the layers' boundaries wave about their depths (`sim.phantom.layer_waves`); None:
+    every boundary parallel to the skin."""
 
     def structures(self) -> dict[str, tuple[Material | None, tuple[VesselSpec, ...]]]:
         """Tissue inside tubes that carry no label, kind by kind (material, tubes), in the

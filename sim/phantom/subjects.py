@@ -5,9 +5,9 @@ by `(spec.seed, k)`, rebuilds the vessels, and keeps the draw only if the vessel
 and vein walls at least `min_gap` apart, vessels clear of the bone, and covered by at least
 `min_gap` of tissue inside the body. Otherwise it draws again (same generator), so subject k
 is always the same phantom. Lymph nodes, muscle bellies and a femoral nerve closer than
-`min_gap` to a vessel are left out. The tissue mechanics', the muscle bellies' and the nerve's
-ranges are each drawn from a generator of their own, so that adding them kept every earlier
-subject's anatomy.
+`min_gap` to a vessel are left out. The tissue mechanics', the muscle bellies', the nerve's and
+the layer waves' ranges are each drawn from a generator of their own, so that adding them kept
+every earlier subject's anatomy.
 """
 
 from __future__ import annotations
@@ -26,8 +26,9 @@ from sim.phantom.anatomy import (
     build_vessels,
 )
 from sim.phantom.centreline import SegmentChain, TubeSamples, sample_tube
+from sim.phantom.layer_waves import LayerWaves
 from sim.phantom.mechanics import TissueMechanics
-from sim.phantom.spec import ARTERY, VEIN, BodySpec, PhantomSpec, VesselSpec
+from sim.phantom.spec import ARTERY, VEIN, BodySpec, PhantomSpec, SubjectParameters, VesselSpec
 from sim.phantom.tube_kernels import brute_force_distance, pack_segments
 
 
@@ -110,6 +111,8 @@ NERVE_KEYS = (
     "nerve_count", "nerve_lobes", "nerve_radius", "nerve_gap", "nerve_drop", "nerve_seed"
 )  # fmt: skip
 """The `FemoralAnatomy` parameters drawn from the nerve stream."""
+LAYER_WAVE_STREAM = 4
+"""Likewise for the layers' waves (adding them kept every subject's anatomy and mechanics)."""
 
 
 def _stream_draws(
@@ -124,11 +127,15 @@ def _stream_draws(
     }
 
 
-def _subject_mechanics(spec: PhantomSpec, subject: int) -> TissueMechanics:
-    """The subject's tissue mechanics: the spec's, with each varied parameter drawn."""
-    assert spec.mechanics is not None
-    draws = _stream_draws(spec, subject, TissueMechanics.keys(), MECHANICS_STREAM)
-    return dataclasses.replace(spec.mechanics, **draws)
+def _subject_parameters(
+    spec: PhantomSpec, subject: int, nominal: SubjectParameters | None, stream: int
+) -> SubjectParameters | None:
+    """The subject's mechanics or layer waves: the spec's `nominal` ones, with each varied
+    parameter drawn from generator `stream`; None where the spec has none."""
+    if nominal is None:
+        return None
+    draws = _stream_draws(spec, subject, type(nominal).keys(), stream)
+    return dataclasses.replace(nominal, **draws)
 
 
 def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
@@ -140,7 +147,7 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
     if subject < 0:
         raise ValueError(f"subject must be >= 0, got {subject}")
     variation = spec.variation
-    own_streams = {*TissueMechanics.keys(), *MUSCLE_KEYS, *NERVE_KEYS}
+    own_streams = {*TissueMechanics.keys(), *LayerWaves.keys(), *MUSCLE_KEYS, *NERVE_KEYS}
     ranges = dict(sorted(i for i in variation.ranges.items() if i[0] not in own_streams))
     rng = np.random.default_rng([spec.seed, subject])
     anatomy_names = {f.name for f in dataclasses.fields(spec.anatomy)}
@@ -189,11 +196,11 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
     nerve = build_nerve(anatomy, spec.body, spec.lateral_sign)
     if not vessels_fit(vessels, nerve.lobes, spec.body, variation.min_gap):
         nerve = FemoralNerve()  # left out whole, like a node in a vessel's way
-    mechanics = None if spec.mechanics is None else _subject_mechanics(spec, subject)
     return dataclasses.replace(
         spec,
         name=f"{spec.name}/subject-{subject}",
-        mechanics=mechanics,
+        mechanics=_subject_parameters(spec, subject, spec.mechanics, MECHANICS_STREAM),
+        layer_waves=_subject_parameters(spec, subject, spec.layer_waves, LAYER_WAVE_STREAM),
         layers=layers,
         vessels=vessels,
         bones=bones,
