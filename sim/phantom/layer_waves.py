@@ -80,6 +80,10 @@ class LayerWaves:
         """The parameter names (the keys of a spec's `layer_waves:` and of its variation)."""
         return tuple(f.name for f in fields(cls))
 
+    def reach(self, bottoms: np.ndarray) -> np.ndarray:
+        """The most each boundary nominally at `bottoms` (m) can move: the amplitude, tapered."""
+        return self.wave_amplitude * np.minimum(1.0, np.asarray(bottoms) / self.wave_taper_depth)
+
     def waves(self) -> np.ndarray:
         """(WAVE_COUNT, 5) rows of amplitude, kx, ky, kz (rad/m) and phase: the kernels' form.
         Zero rows when the amplitude is 0 (no boundary moves)."""
@@ -111,14 +115,14 @@ def boundary_shift(x, y, bottom, waves, taper_depth):
 @njit(cache=True, inline="always")
 def layer_at(depth, x, y, bottoms, waves, taper_depth, reach):
     """Index of the layer at `depth` below the skin above (x, y): boundary i (nominally at
-    `bottoms[i]`) moved by `boundary_shift`, which is evaluated only within `reach` (the
-    waves' largest amplitude) of it, so most points cost what flat layers did."""
+    `bottoms[i]`) moved by `boundary_shift`, which is evaluated only within `reach[i]` (the
+    most it can move, `LayerWaves.reach`) of it, so most points cost what flat layers did."""
     layer = 0
     while layer < bottoms.shape[0]:
         bottom = bottoms[layer]
-        if depth <= bottom - reach:
+        if depth <= bottom - reach[layer]:
             break
-        if depth <= bottom + reach and depth <= bottom + boundary_shift(
+        if depth <= bottom + reach[layer] and depth <= bottom + boundary_shift(
             x, y, bottom, waves, taper_depth
         ):
             break

@@ -86,7 +86,11 @@ class Phantom:
         self._body_kind, self._body_params = body_shape.body_parameters(spec.body)
         self._layer_bottoms = np.cumsum([layer.thickness for layer in spec.layers[:-1]])
         waves = spec.layer_waves or LayerWaves()
-        self._layer_waves = (waves.waves(), waves.wave_taper_depth, waves.wave_amplitude)
+        self._layer_waves = (
+            waves.waves(),
+            waves.wave_taper_depth,
+            waves.reach(self._layer_bottoms),
+        )
         self._vessel_indexes: dict[float, TubeIndex] = {}
 
     def _vessel_index_within(self, search_radius: float) -> TubeIndex:
