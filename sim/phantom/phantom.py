@@ -120,6 +120,13 @@ class Phantom:
         return grids
 
     @cached_property
+    def _structure_union(self) -> Grid:
+        """One grid over the tubes of every kind of structure: where its cell lies wholly
+        outside them, a point is in none and the kinds' own lookups are skipped."""
+        tubes = tuple(tube for _, members in self.spec.structures().values() for tube in members)
+        return self._tube_index(tubes, 0.0).kernel_grid()
+
+    @cached_property
     def _class_indexes(self) -> dict[str, TubeIndex]:
         """Per-class indexes (artery, vein, bone) for exact distances and meshes."""
         spec = self.spec
@@ -182,6 +189,7 @@ class Phantom:
             vessels.chain.tube,
             vessels.chain.label,
             vessels.cutoff,
+            self._structure_union,
             material["bone"],
             *grids["bone"],
             material["node"],

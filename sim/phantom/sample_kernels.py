@@ -37,6 +37,14 @@ def inside_label(px, py, pz, grid, segment_label):
     return 0
 
 
+@njit(cache=True, inline="always")
+def may_be_inside(px, py, pz, grid):
+    """False where the point's cell of `grid` lies wholly outside its tubes (or the point lies
+    off the grid): one lookup that rules out every tube of the grid."""
+    c = locate_cell(px, py, pz, grid)
+    return c >= 0 and grid.state[c] != OUTSIDE
+
+
 @njit(cache=True, parallel=True)
 def label_points(points, body_kind, body_params, grid, segment_label, out):
     """Label (0 background, 1 artery, 2 vein) of each point; 0 outside the body."""
@@ -62,6 +70,7 @@ def sample_points(
     segment_tube,
     segment_label,
     cutoff,
+    structures,
     bone_index,
     bones,
     bone_mark,
@@ -87,11 +96,12 @@ def sample_points(
     """Everything the ultrasound needs per point, written into the output arrays.
 
     `vessels` and the structures (`bones` ... `fascicles`) are `tube_kernels.Grid`s, the
-    vessels' within `cutoff`; each structure's `*_mark` is 1 per segment. A point in a vessel's
-    lumen is blood, else in bone bone, else in a lymph node node, else in the nerve nerve (or
-    fascicle, in one of its fascicles), else in a muscle belly muscle, else the layer at its
-    depth, its boundaries moved by `layer_waves` (`layer_waves.layer_at`; a material index of -1
-    means none of that kind exists).
+    vessels' within `cutoff`; each structure's `*_mark` is 1 per segment; `structures` is the
+    grid of all their tubes together, which tells at one lookup that most points lie in none.
+    A point in a vessel's lumen is blood, else in bone bone, else in a lymph node node, else in
+    the nerve nerve (or fascicle, in one of its fascicles), else in a muscle belly muscle, else
+    the layer at its depth, its boundaries moved by `layer_waves` (`layer_waves.layer_at`; a
+    material index of -1 means none of that kind exists).
     """
     for p in prange(points.shape[0]):
         x, y, z = points[p, 0], points[p, 1], points[p, 2]
@@ -117,6 +127,8 @@ def sample_points(
                 material[p] = layer_at(
                     depth[p], x, y, layer_bottoms, layer_waves, wave_taper_depth, wave_reach
                 )
+                if not may_be_inside(x, y, z, structures):
+                    continue  # in no structure: the layer's material stands
                 if bone_index >= 0 and inside_label(x, y, z, bones, bone_mark) > 0:
                     material[p] = bone_index
                 elif node_index >= 0 and inside_label(x, y, z, nodes, node_mark) > 0:

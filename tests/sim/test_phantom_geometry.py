@@ -197,3 +197,40 @@ def test_mesh_rejects_unknown_parts(default_phantom: Phantom) -> None:
         default_phantom.vessel_sdf(np.zeros((1, 3)), 3)
     with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
         default_phantom.labels(np.zeros((4, 2)))
+
+
+@pytest.mark.parametrize("subject", [0, 3])
+def test_structure_materials_match_brute_force_point_in_tube(subject: int) -> None:
+    """Every point's material against the structures' own tubes, by brute force: a vessel's
+    lumen is blood, else bone, lymph node, nerve (a fascicle inside it), muscle belly in that
+    order, else a layer's material; so the one-lookup shortcut for points in no structure
+    (`Phantom._structure_union`) changes nothing."""
+    spec = make_subject(load_phantom("femoral"), subject)
+    phantom = Phantom(spec)
+    kinds = {kind: pair for kind, pair in spec.structures().items() if pair[1]}
+    assert set(kinds) >= {"bone", "muscle", "nerve", "fascicle"}
+    rng = np.random.default_rng(subject)
+    centres = np.concatenate([t.control_points for _, tubes in kinds.values() for t in tubes])
+    points = centres[rng.integers(0, len(centres), 4000)] + rng.normal(0.0, 4e-3, (4000, 3))
+    below_skin = points[:, 2] < phantom.skin_height(points[:, 0], points[:, 1])
+    points = points[below_skin & (phantom.labels(points) == 0)]  # in the body, not a lumen
+    distance = {
+        kind: brute_force_signed_distance(tubes, points, 0.04) for kind, (_, tubes) in kinds.items()
+    }
+    clear = np.min([np.abs(d) for d in distance.values()], axis=0) > TOLERANCE
+    points = points[clear]
+    inside = {kind: d[clear] < 0 for kind, d in distance.items()}
+    layers = np.arange(len(spec.layers))
+    expected = np.full(len(points), -1)  # -1: a layer's material
+    for kind in ("muscle", "nerve", "node", "bone"):  # the later kind overrules the earlier
+        if kind in kinds:
+            expected[inside[kind]] = phantom.materials.index(kinds[kind][0])
+    nerve = phantom.materials.index(kinds["nerve"][0])
+    expected[(expected == nerve) & inside["fascicle"]] = phantom.materials.index(
+        kinds["fascicle"][0]
+    )
+    material = phantom.sample(points).material
+    in_structure = expected >= 0
+    assert in_structure.sum() > 500 and (~in_structure).sum() > 500
+    np.testing.assert_array_equal(material[in_structure], expected[in_structure])
+    assert np.isin(material[~in_structure], layers).all()
