@@ -303,7 +303,7 @@ far more than the kernels' rounding (about 1e-17 m here), so culling by the reac
 a point that the map's own test would have reached."""
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def column_row_shifts(depths: np.ndarray, columns: np.ndarray, length: float) -> np.ndarray:
     """(cols, rows) bulk shift along the beam of the tissue seen at each pixel, for the
     columns' indentations `columns` and the rows' `depths`: `bulk_row_shifts` at
@@ -318,9 +318,9 @@ def column_row_shifts(depths: np.ndarray, columns: np.ndarray, length: float) ->
         return out
     spacing = (high - low) / (INDENTATION_LEVELS - 1)
     shifts = np.empty((INDENTATION_LEVELS, depths.shape[0]))
-    for k in range(INDENTATION_LEVELS):
+    for k in numba.prange(INDENTATION_LEVELS):
         shifts[k] = bulk_row_shifts(depths, low + k * spacing, length)
-    for col in range(columns.shape[0]):
+    for col in numba.prange(columns.shape[0]):
         position = (columns[col] - low) / spacing
         below = min(int(position), INDENTATION_LEVELS - 2)
         above = position - below
