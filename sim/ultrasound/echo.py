@@ -392,26 +392,31 @@ def smooth_lines(
     imaged pixels only (in contact, not air: normalised convolution, so black margins do not
     bleed in), 0 elsewhere. `along`, `along_weight`: (cols, rows) float32 work buffers."""
     cols, rows = lines.shape
-    half_axial = kernel_axial.shape[0] // 2
+    taps = kernel_axial.shape[0]
+    half_axial = taps // 2
     half_lateral = kernel_lateral.shape[0] // 2
     for col in numba.prange(cols):
-        total_line = along[col]
-        weight_line = along_weight[col]
-        total_line[:] = 0.0
-        weight_line[:] = 0.0
         if not contact[col]:
+            along[col, :] = 0.0
+            along_weight[col, :] = 0.0
             continue
-        imaged = np.empty(rows, dtype=np.float32)  # 1 on tissue, 0 in air
-        masked = np.empty(rows, dtype=np.float32)
+        # the line padded with zeros (air) at both ends, so every tap runs over all rows: a
+        # branch-free loop that vectorises, and adding 0 leaves the sums as they were
+        imaged = np.zeros(rows + 2 * half_axial, dtype=np.float32)  # 1 on tissue, 0 in air
+        masked = np.zeros_like(imaged)
         for row in range(rows):
-            imaged[row] = np.float32(1.0) if material[col * rows + row] >= 0 else np.float32(0.0)
-            masked[row] = imaged[row] * np.float32(lines[col, row])
-        for t in range(kernel_axial.shape[0]):  # adding 0 for air: the sums stay exact
+            inside = material[col * rows + row] >= 0
+            imaged[row + half_axial] = np.float32(1.0) if inside else np.float32(0.0)
+            masked[row + half_axial] = np.float32(lines[col, row]) if inside else np.float32(0.0)
+        total_line = np.zeros(rows, dtype=np.float32)  # local: no aliasing for the compiler
+        weight_line = np.zeros(rows, dtype=np.float32)
+        for t in range(taps):
             weight = kernel_axial[t]
-            shift = t - half_axial
-            for row in range(max(0, -shift), min(rows, rows - shift)):
-                total_line[row] += weight * masked[row + shift]
-                weight_line[row] += weight * imaged[row + shift]
+            for row in range(rows):
+                total_line[row] += weight * masked[row + t]
+                weight_line[row] += weight * imaged[row + t]
+        along[col, :] = total_line
+        along_weight[col, :] = weight_line
     for col in numba.prange(cols):
         if not contact[col]:
             out[col, :] = 0
