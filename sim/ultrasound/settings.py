@@ -85,8 +85,13 @@ class UltrasoundSettings:
     (`lost_coupling`)."""
     speckle_smoothing: float = 0.0
     """Speckle reduction: Gaussian standard deviation (m) of the scanner's smoothing of the
-    log-compressed image, as its speckle-reduction filter and the export's interpolation do
-    (real exports show grains several pixels wide). 0: none."""
+    log-compressed image across the beam, as its speckle-reduction filter and the
+    interpolation between scan lines do (real exports show grains several pixels wide). 0:
+    none."""
+    speckle_smoothing_axial: float | None = None
+    """The same along the beam (m); None: as across it. Real exports smooth far less along
+    the beam, where the pulse resolves finely, than across it (see
+    `sim.ultrasound.scanner.RANDOM_RANGES`)."""
     grey_gamma: float = 1.0
     """Grey map: a log-compressed level g shows as `255 * (g / 255) ** grey_gamma`; above 1
     darkens the mid-greys, as vascular presets do, and keeps black and white."""
@@ -128,6 +133,11 @@ class UltrasoundSettings:
         tgc = self.tgc_attenuation
         if tgc is not None and not tgc >= 0:
             raise ValueError(f"ultrasound setting tgc_attenuation must be non-negative, got {tgc}")
+        axial = self.speckle_smoothing_axial
+        if axial is not None and not axial >= 0:
+            raise ValueError(
+                f"ultrasound setting speckle_smoothing_axial must be non-negative, got {axial}"
+            )
         for name in ("specular_gain", "contact_tolerance", "speckle_smoothing"):
             if not getattr(self, name) >= 0:
                 raise ValueError(

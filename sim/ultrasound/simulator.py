@@ -75,7 +75,10 @@ def db_to_amplitude(db: np.ndarray | float) -> np.ndarray | np.float64:
 
 
 def gaussian_taps(sigma: float) -> np.ndarray:
-    """A unit-sum Gaussian kernel of standard deviation `sigma` (pixels), +-3 sigma wide."""
+    """A unit-sum Gaussian kernel of standard deviation `sigma` (pixels), +-3 sigma wide; the
+    identity (one tap) for sigma 0."""
+    if sigma == 0:
+        return np.ones(1, dtype=np.float32)
     half = max(1, math.ceil(3.0 * sigma))
     taps = np.exp(-0.5 * (np.arange(-half, half + 1) / sigma) ** 2)
     return (taps / taps.sum()).astype(np.float32)
@@ -150,13 +153,13 @@ class UltrasoundSimulator:
         self._clutter_power = (
             0.0 if settings.clutter_db is None else float(10.0 ** (settings.clutter_db / 10.0))
         )
-        smoothing = settings.speckle_smoothing
+        across = settings.speckle_smoothing
+        along = (
+            across if settings.speckle_smoothing_axial is None else settings.speckle_smoothing_axial
+        )
         self._smoothing = (
-            (
-                gaussian_taps(smoothing / probe.pixel_height),
-                gaussian_taps(smoothing / probe.pixel_width),
-            )
-            if smoothing
+            (gaussian_taps(along / probe.pixel_height), gaussian_taps(across / probe.pixel_width))
+            if along or across
             else None
         )
         self._aperture_half_cols = max(1, round(settings.active_aperture / probe.pixel_width / 2))

@@ -214,6 +214,26 @@ def test_speckle_reduction_coarsens_the_grain_and_keeps_the_mean(phantom) -> Non
     assert smooth.mean() == pytest.approx(sharp.mean(), abs=1.0)
 
 
+def test_speckle_reduction_across_the_beam_only_keeps_the_axial_grain(phantom) -> None:
+    """`speckle_smoothing_axial=0` smooths across the beam as much as before and not along
+    it: the lateral grain widens as with the isotropic filter, the axial one stays about the
+    unsmoothed image's (within 10 %: averaging across the beam takes out some of the
+    receiver's noise, which is uncorrelated from row to row), and the isotropic filter's is
+    wider."""
+    sharp = render(phantom, PLAIN)[0][40:150]
+    sigma = 0.2e-3
+    isotropic = dataclasses.replace(PLAIN, speckle_smoothing=sigma)
+    both = render(phantom, isotropic)[0][40:150]
+    across = render(phantom, dataclasses.replace(isotropic, speckle_smoothing_axial=0.0))[0][40:150]
+    pixel = SMALL_PROBE.width / SMALL_PROBE.cols
+    assert correlation_width(across, 1) > correlation_width(sharp, 1) + sigma / pixel
+    assert correlation_width(across, 1) == pytest.approx(correlation_width(both, 1), rel=0.1)
+    assert correlation_width(across, 0) == pytest.approx(correlation_width(sharp, 0), rel=0.1)
+    assert correlation_width(both, 0) > 1.2 * correlation_width(across, 0)
+    with pytest.raises(ValueError, match="speckle_smoothing_axial must be non-negative"):
+        dataclasses.replace(isotropic, speckle_smoothing_axial=-1e-4).settings()
+
+
 def test_clutter_fills_lumens_and_barely_changes_tissue(phantom) -> None:
     """Side lobes see the tissue beside a lumen: the lumen brightens by much, the tissue by
     about 10 log10(1 + 10^(clutter/10)) dB."""
@@ -270,6 +290,8 @@ def test_random_presets_are_seeded_and_within_their_ranges() -> None:
         assert preset.tgc_attenuation is not None
         assert TGC_ATTENUATION_RANGE[0] <= preset.tgc_attenuation <= TGC_ATTENUATION_RANGE[1]
         assert preset.settings().tgc_attenuation == preset.tgc_attenuation
+        assert preset.speckle_smoothing_axial == 0.0  # real exports: across the beam only
+        assert 0.0 <= preset.speckle_smoothing <= RANDOM_RANGES["speckle_smoothing"][1]
     assert scanner_preset("random-3") == random_preset(3)
     assert scanner_preset("vascular") is PRESETS["vascular"]
 
