@@ -22,7 +22,11 @@ pixels square, `vessel_margin` away from every vessel, almost unclipped, locally
 the within-window std of the grey levels, compared with the log-compressed Rayleigh reference
 `rayleigh_grey_std` where the dynamic range is known (the simulator's), the per-window grey
 SNR (mean/std), and the speckle grain: the full widths at half maximum of the windows' 2-D
-autocorrelation along the rows (axial) and the columns (lateral), in pixels.
+autocorrelation along the rows (axial) and the columns (lateral), in pixels. In each set's own
+pixels the grain says little about what a network sees: a 512 px export and a 256 px frame
+of the same speckle differ twofold. So it is measured again with every image resized, as
+training and inference resize it (`resus.segmentation.data.resize_images`), to the network's
+square input (`RealismSettings.network_size`), in windows of `network_grain_patch` pixels.
 
 Depth. The imaged area's rows are cut into `DEPTH_BANDS` equal bands from the face down, and
 the tissue's mean grey in each is the depth profile: real exports mostly darken with depth
@@ -164,6 +168,11 @@ class RealismSettings:
     """Side of the windows whose autocorrelation gives the grain size. Each window's own mean
     is removed, which narrows a 5-7 px wide autocorrelation by about 4 % at 32 px (by 10 % and
     more at 16 px); a grain near the window's size cannot be measured."""
+    network_size: int = 128
+    """Side of the square network input (the `cpu128` training preset's) that every image is
+    resized to for the grain as a network sees it."""
+    network_grain_patch: int = 16
+    """Side of the windows of that grain (at `network_size`)."""
     vessel_margin: float = 8.0
     """Least distance of a speckle window's pixels from any vessel pixel."""
     blank_fraction: float = 0.95
@@ -184,7 +193,7 @@ class RealismSettings:
     to four such widths out, and the lumen's interior starts one width inside its edge."""
 
     def __post_init__(self) -> None:
-        for name in ("patch", "grain_patch"):
+        for name in ("patch", "grain_patch", "network_grain_patch"):
             size = getattr(self, name)
             if size < 4 or size % 2:
                 raise ResusError(f"RealismSettings.{name} must be even and >= 4, got {size}")
@@ -268,6 +277,13 @@ class SpeckleStats:
     """Full width at half maximum of the autocorrelation along the rows (px)."""
     grain_lateral: float | None
     """The same along the columns (px)."""
+    network_grain_patches: int
+    """Windows (`RealismSettings.network_grain_patch` square) of the images resized to the
+    network's input."""
+    network_grain_axial: float | None
+    """The grain along the rows of the images resized to the network's input (px there)."""
+    network_grain_lateral: float | None
+    """The same along the columns."""
 
 
 @dataclass(frozen=True)
@@ -420,6 +436,12 @@ TABLE: tuple[TableRow, ...] = (
     ("window grey SNR, median", _speckle(lambda s: s.snr_quantiles[MEDIAN]), 2),
     ("grain axial FWHM (px)", _speckle(lambda s: s.grain_axial), 2),
     ("grain lateral FWHM (px)", _speckle(lambda s: s.grain_lateral), 2),
+    ("grain axial FWHM at the network's input (px)", _speckle(lambda s: s.network_grain_axial), 2),
+    (
+        "grain lateral FWHM at the network's input (px)",
+        _speckle(lambda s: s.network_grain_lateral),
+        2,
+    ),
     ("bright lines within 10 degrees of across the beam (share)", _lines(0, 10), 3),
     ("bright lines steeper than 45 degrees (share)", _lines(45, 90), 3),
     ("vessel regions", _shapes(lambda s: s.regions), 0),
@@ -611,9 +633,8 @@ class _Accumulator:
         """Each image's own deepest / second band ratio."""
         self.window_means: list[np.ndarray] = []
         self.window_variances: list[np.ndarray] = []
-        size = settings.grain_patch
-        self.correlation = np.zeros((2 * size, 2 * size))
-        self.grain_patches = 0
+        self.grain = _GrainSums(settings.grain_patch)
+        self.network_grain = _GrainSums(settings.network_grain_patch)
         self.regions: list[tuple[float, float, float]] = []
         """(aspect, area share, depth share) of each vessel region."""
         self.centroid_offsets: list[float] = []
@@ -629,6 +650,7 @@ class _Accumulator:
     def add(self, image: np.ndarray, vessel: np.ndarray) -> None:
         from scipy import ndimage
 
+        self._add_network_grain(image, vessel)
         region = imaged_region(image, self.settings.blank_fraction)
         image, vessel = image[region], vessel[region]
         self.tissue += np.bincount(image[~vessel], minlength=GREY_LEVELS)
@@ -656,13 +678,7 @@ class _Accumulator:
         windows = tissue_windows(image, usable, self.settings.patch, self.settings)
         self.window_means.append(windows.mean(axis=(1, 2)))
         self.window_variances.append(windows.var(axis=(1, 2), ddof=1))
-        grains = tissue_windows(image, usable, self.settings.grain_patch, self.settings)
-        if len(grains):
-            centred = grains - grains.mean(axis=(1, 2), keepdims=True)
-            spectrum = np.fft.rfft2(centred, s=self.correlation.shape)
-            correlations = np.fft.irfft2(np.abs(spectrum) ** 2, s=self.correlation.shape)
-            self.correlation += (correlations / correlations[:, :1, :1]).sum(axis=0)
-            self.grain_patches += len(grains)
+        self.grain.add(tissue_windows(image, usable, self.settings.grain_patch, self.settings))
         regions = _regions(vessel, self.settings.min_vessel_area)  # labelled once for both
         self.regions.extend(_region_shape(vessel, region) for region in regions)
         self.contrasts.extend(
@@ -671,6 +687,30 @@ class _Accumulator:
         self.cut += sum(is_cut(vessel.shape, region) for region in regions)
         if regions:
             self.centroid_offsets.append(centroid_offset(vessel, regions))
+
+    def _add_network_grain(self, image: np.ndarray, vessel: np.ndarray) -> None:
+        """The grain's windows of the whole image resized to the network's input (margins
+        and all, as the network is given it), then cut to its imaged area; the vessel margin
+        shrinks with the image."""
+        from scipy import ndimage
+
+        from resus.segmentation.data import resize_images, resize_labels
+
+        settings, size = self.settings, self.settings.network_size
+        small = resize_images(image[None], size)[0]
+        small_vessel = resize_labels(vessel[None].astype(np.uint8), size)[0] > 0
+        region = imaged_region(small, settings.blank_fraction)
+        small, small_vessel = small[region], small_vessel[region]
+        margin = settings.vessel_margin * size / image.shape[0]
+        clearance = (
+            ndimage.distance_transform_edt(~small_vessel)
+            if small_vessel.any()
+            else np.full(small_vessel.shape, np.inf)
+        )
+        usable = ~small_vessel & (clearance >= margin)
+        self.network_grain.add(
+            tissue_windows(small, usable, settings.network_grain_patch, settings)
+        )
 
     def depth_profile(self) -> tuple[float | None, ...]:
         """Mean tissue grey of each depth band (None where a band had no tissue)."""
@@ -683,7 +723,8 @@ class _Accumulator:
             return None
         std = float(np.sqrt(variances.mean()))
         rayleigh = None if dynamic_range_db is None else rayleigh_grey_std(dynamic_range_db)
-        axial, lateral = self._grain()
+        axial, lateral = self.grain.widths()
+        network_axial, network_lateral = self.network_grain.widths()
         return SpeckleStats(
             patches=len(means),
             std=std,
@@ -692,9 +733,12 @@ class _Accumulator:
             rayleigh_std=rayleigh,
             std_to_rayleigh=None if rayleigh is None else std / rayleigh,
             implied_dynamic_range_db=RAYLEIGH_LOG_STD_DB * (GREY_LEVELS - 1) / std,
-            grain_patches=self.grain_patches,
+            grain_patches=self.grain.patches,
             grain_axial=axial,
             grain_lateral=lateral,
+            network_grain_patches=self.network_grain.patches,
+            network_grain_axial=network_axial,
+            network_grain_lateral=network_lateral,
         )
 
     def vessel_shapes(self, images: int) -> VesselShapeStats | None:
@@ -719,15 +763,34 @@ class _Accumulator:
             lumen_middle_quantiles=_present_quantiles([c.lumen_middle for c in self.contrasts]),
         )
 
-    def _grain(self) -> tuple[float | None, float | None]:
+
+class _GrainSums:
+    """The sum of square tissue windows' autocorrelations, each scaled to 1 at lag 0 (so that
+    every window weighs the same), and what it says about the speckle's grain."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.correlation = np.zeros((2 * size, 2 * size))
+        self.patches = 0
+
+    def add(self, windows: np.ndarray) -> None:
+        """Add (n, size, size) windows, each less its own mean."""
+        if not len(windows):
+            return
+        centred = windows - windows.mean(axis=(1, 2), keepdims=True)
+        spectrum = np.fft.rfft2(centred, s=self.correlation.shape)
+        correlations = np.fft.irfft2(np.abs(spectrum) ** 2, s=self.correlation.shape)
+        self.correlation += (correlations / correlations[:, :1, :1]).sum(axis=0)
+        self.patches += len(windows)
+
+    def widths(self) -> tuple[float | None, float | None]:
         """Axial and lateral FWHM (px) of the windows' mean autocorrelation, each lag's sum
-        divided by the pixel pairs at that lag (the unbiased estimate)."""
-        if not self.grain_patches:
+        divided by the pixel pairs at that lag (the unbiased estimate); None without windows."""
+        if not self.patches:
             return None, None
-        size = self.settings.grain_patch
-        overlap = size - np.arange(size)
-        axial = self.correlation[:size, 0] / overlap
-        lateral = self.correlation[0, :size] / overlap
+        overlap = self.size - np.arange(self.size)
+        axial = self.correlation[: self.size, 0] / overlap
+        lateral = self.correlation[0, : self.size] / overlap
         return (
             full_width_half_maximum(axial / axial[0]),
             full_width_half_maximum(lateral / lateral[0]),
@@ -1139,7 +1202,9 @@ def _report_lines(comparison: RealismComparison, sources: Mapping[str, object]) 
         "vessel, homogeneous and unclipped (the Rayleigh reference is the 5.57 dB std of "
         f"log-compressed speckle at the simulated display's {_dynamic_range(sim)} dynamic "
         "range; real images do not record theirs); grain: autocorrelation FWHM over "
-        f"{settings.grain_patch} px windows, in each set's own pixels. Bright lines: ridges "
+        f"{settings.grain_patch} px windows, in each set's own pixels, and again with every "
+        f"image resized to the network's {settings.network_size} x {settings.network_size} px "
+        f"input, over {settings.network_grain_patch} px windows. Bright lines: ridges "
         f"of the Hessian at a sigma of {LINE_SCALE:.1%} of the imaged height, the strongest "
         f"{LINE_SHARE:.0%} of each image's tissue clear of the vessels, by the angle of their "
         "normal to the beam (a line across the beam: 0 degrees). Vessel shapes: each "

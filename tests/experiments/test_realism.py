@@ -206,6 +206,35 @@ def test_grain_of_blurred_white_noise_is_the_blur_width() -> None:
     assert speckle.grain_lateral == pytest.approx(factor * sigma_cols, rel=0.08)
 
 
+def test_grain_at_the_network_input_does_not_depend_on_the_export_size() -> None:
+    """The same blurred speckle exported at 512 px and at 256 px: in their own pixels the
+    larger export's grain is wider (twofold, less the windows' narrowing), resized to the
+    network's input it is the same; and it keeps the blur's shape (1.5 times wider across
+    the beam than along it)."""
+    rng = np.random.default_rng(5)
+    fields = [ndimage.gaussian_filter(rng.normal(size=(512, 512)), (3.0, 4.5)) for _ in range(6)]
+    large = [np.clip(np.round(128 + f * 20 / f.std()), 0, 255).astype(np.uint8) for f in fields]
+    small = [cv2.resize(image, (256, 256), interpolation=cv2.INTER_AREA) for image in large]
+    grains = [
+        measure(
+            ImageSet(
+                name,
+                tuple(images),
+                tuple(np.zeros_like(i, bool) for i in images),
+                tuple(map(str, range(len(images)))),
+            )
+        ).speckle
+        for name, images in (("large", large), ("small", small))
+    ]
+    assert all(g is not None and g.network_grain_patches > 150 for g in grains)
+    big, half = grains
+    assert big is not None and half is not None
+    assert big.grain_axial > 1.5 * half.grain_axial
+    assert big.network_grain_axial == pytest.approx(half.network_grain_axial, rel=0.05)
+    assert big.network_grain_lateral == pytest.approx(half.network_grain_lateral, rel=0.05)
+    assert big.network_grain_lateral / big.network_grain_axial == pytest.approx(1.5, rel=0.15)
+
+
 def test_full_width_half_maximum_interpolates() -> None:
     assert full_width_half_maximum(np.array([1.0, 0.75, 0.25, 0.0])) == pytest.approx(3.0)
     assert full_width_half_maximum(np.array([1.0, 0.9, 0.8])) is None
