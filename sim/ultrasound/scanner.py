@@ -58,7 +58,7 @@ class ScannerPreset:
     """Gaussian sigma (m) of the speckle-reduction filter across the beam."""
     speckle_smoothing_axial: float | None = None
     """The same along the beam (`UltrasoundSettings.speckle_smoothing_axial`); None: as
-    across it (the named presets); 0 in `random_preset`'s."""
+    across it (every preset, `random_preset`'s included; see `RANDOM_RANGES`)."""
     clutter_db: float | None = -6.0
     """Side-lobe haze in lumens (`UltrasoundSettings.clutter_db`); see `RANDOM_RANGES`."""
     clutter_spread: float = 0.1
@@ -209,7 +209,7 @@ RANDOM_RANGES: dict[str, tuple[float, float]] = {
     "dynamic_range_db": (48.0, 72.0),
     "tgc_slider_db": (-4.0, 4.0),
     "grey_gamma": (1.1, 2.2),
-    "speckle_smoothing": (0.0, 0.6e-3),
+    "speckle_smoothing": (0.0, 0.3e-3),
     "clutter_db": (-7.0, 1.0),
     "electronic_noise_db": (-24.0, -10.0),
     "reverberation": (0.0, 0.5),
@@ -239,16 +239,16 @@ gives 0.175 / 0.401 / 0.650, at the cost of darker tissue (mean grey 47.6 -> 42.
 haze from the whole row (`ScannerPreset.clutter_spread`) lifted them to 0.207 / 0.442 / 0.678;
 -7 to +1 dB brings them back to 0.183 / 0.408 / 0.641.
 
-Speckle reduction: across the beam only, 0-0.6 mm (`speckle_smoothing_axial` 0). Measured as
-the network sees the images, both sets resized to its 128 x 128 input, the real exports'
-speckle grain (autocorrelation FWHM in homogeneous 16 px tissue windows) is 1.54 px along the
-beam and 8.42 across it; the simulator's with no smoothing at all was already coarser along
-the beam (1.67 px, 144 pressed frames of six random presets), and the isotropic 0-0.3 mm
-filter of the presets until 2026-12-06 made it 2.00 px along, 7.46 across (seed 0's training
-sweeps: 1.93 and 8.14). Across the beam only, at twice the range: 1.74 and 8.98. A scanner's
-axial resolution is its pulse's, fine at these frequencies; its lateral one is the beam's,
-interpolated between scan lines and smoothed, which is what real exports show (their grain at
-their own resolution: 3.9 px along, 18 across)."""
+Speckle reduction: 0-0.3 mm, alike along and across the beam. Measured as the network sees
+the images, both sets resized to its 128 x 128 input (`resus realism`'s grain at the network's
+input), the real exports' grain is 1.55 px along the beam and 8.38 across, seed 0's training
+sweeps' 1.93 and 8.15: coarser along the beam, where a scanner's pulse resolves finely.
+Smoothing across the beam only (`speckle_smoothing_axial` 0) at 0-0.6 mm made them 1.58 and
+9.28, but also laid the tissue's bright lines flatter than the real ones (within 10 degrees of
+across the beam 0.569 -> 0.664, real 0.578) and scored no better: paired over four seeds
+-0.006 +- 0.022 (p = 0.62), ensembles 0.480 -> 0.477, larger vessels found more often and
+small ones less (README Sim-to-real, "Speckle smoothed across the beam only"). Not kept; a
+narrower lateral range is the next thing to try."""
 
 
 DRAWN_LAST = ("reverberation", "persistence")
@@ -313,7 +313,6 @@ def random_preset(seed: int) -> ScannerPreset:
         tgc_attenuation=tgc_attenuation,
         grey_gamma=draw["grey_gamma"],
         speckle_smoothing=draw["speckle_smoothing"],
-        speckle_smoothing_axial=0.0,
         clutter_db=draw["clutter_db"],
         electronic_noise_db=draw["electronic_noise_db"],
         reverberation=draw["reverberation"],

@@ -89,9 +89,9 @@ class UltrasoundSettings:
     interpolation between scan lines do (real exports show grains several pixels wide). 0:
     none."""
     speckle_smoothing_axial: float | None = None
-    """The same along the beam (m); None: as across it. Real exports smooth far less along
-    the beam, where the pulse resolves finely, than across it (see
-    `sim.ultrasound.scanner.RANDOM_RANGES`)."""
+    """The same along the beam (m); None: as across it. Less than across it for a scanner
+    whose filter spares the fine axial grain its pulse resolves (what that did to simulated
+    training images: `sim.ultrasound.scanner.RANDOM_RANGES`)."""
     grey_gamma: float = 1.0
     """Grey map: a log-compressed level g shows as `255 * (g / 255) ** grey_gamma`; above 1
     darkens the mid-greys, as vascular presets do, and keeps black and white."""
