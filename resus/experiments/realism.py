@@ -648,8 +648,6 @@ class _Accumulator:
         """Bright-line pixels per bin of their normal's angle to the beam."""
 
     def add(self, image: np.ndarray, vessel: np.ndarray) -> None:
-        from scipy import ndimage
-
         self._add_network_grain(image, vessel)
         region = imaged_region(image, self.settings.blank_fraction)
         image, vessel = image[region], vessel[region]
@@ -665,11 +663,7 @@ class _Accumulator:
         falloff = depth_falloff(_band_means(sums, pixels))
         if falloff is not None:
             self.falloffs.append(falloff)
-        clearance = (
-            ndimage.distance_transform_edt(~vessel)
-            if vessel.any()
-            else np.full(vessel.shape, np.inf)
-        )
+        clearance = _vessel_clearance(vessel)
         usable = ~vessel & (clearance >= self.settings.vessel_margin)
         line_margin = max(self.settings.vessel_margin, EDGE_SIGMAS * line_scale_pixels(len(image)))
         self.line_angles += line_angle_counts(
@@ -692,8 +686,6 @@ class _Accumulator:
         """The grain's windows of the whole image resized to the network's input (margins
         and all, as the network is given it), then cut to its imaged area; the vessel margin
         shrinks with the image."""
-        from scipy import ndimage
-
         from resus.segmentation.data import resize_images, resize_labels
 
         settings, size = self.settings, self.settings.network_size
@@ -702,12 +694,7 @@ class _Accumulator:
         region = imaged_region(small, settings.blank_fraction)
         small, small_vessel = small[region], small_vessel[region]
         margin = settings.vessel_margin * size / image.shape[0]
-        clearance = (
-            ndimage.distance_transform_edt(~small_vessel)
-            if small_vessel.any()
-            else np.full(small_vessel.shape, np.inf)
-        )
-        usable = ~small_vessel & (clearance >= margin)
+        usable = ~small_vessel & (_vessel_clearance(small_vessel) >= margin)
         self.network_grain.add(
             tissue_windows(small, usable, settings.network_grain_patch, settings)
         )
@@ -762,6 +749,15 @@ class _Accumulator:
             lumen_quantiles=_present_quantiles([c.lumen for c in self.contrasts]),
             lumen_middle_quantiles=_present_quantiles([c.lumen_middle for c in self.contrasts]),
         )
+
+
+def _vessel_clearance(vessel: np.ndarray) -> np.ndarray:
+    """Each pixel's distance (px) from the nearest vessel pixel; inf in an image without."""
+    from scipy import ndimage
+
+    if not vessel.any():
+        return np.full(vessel.shape, np.inf)
+    return ndimage.distance_transform_edt(~vessel)
 
 
 class _GrainSums:

@@ -80,9 +80,13 @@ class LayerWaves:
         """The parameter names (the keys of a spec's `layer_waves:` and of its variation)."""
         return tuple(f.name for f in fields(cls))
 
+    def taper(self, bottoms: np.ndarray) -> np.ndarray:
+        """The factor each boundary nominally at `bottoms` (m) waves by: min(1, b / taper)."""
+        return np.minimum(1.0, np.asarray(bottoms) / self.wave_taper_depth)
+
     def reach(self, bottoms: np.ndarray) -> np.ndarray:
         """The most each boundary nominally at `bottoms` (m) can move: the amplitude, tapered."""
-        return self.wave_amplitude * np.minimum(1.0, np.asarray(bottoms) / self.wave_taper_depth)
+        return self.wave_amplitude * self.taper(bottoms)
 
     def waves(self) -> np.ndarray:
         """(WAVE_COUNT, 5) rows of amplitude, kx, ky, kz (rad/m) and phase: the kernels' form.
@@ -101,29 +105,30 @@ class LayerWaves:
 
 
 @njit(cache=True, inline="always")
-def boundary_shift(x, y, bottom, waves, taper_depth):
-    """How far (m, positive deeper) the boundary nominally at depth `bottom` lies from it
-    below the phantom-frame point (x, y)."""
+def boundary_shift(x, y, bottom, waves, taper):
+    """How far (m, positive deeper) the boundary nominally at depth `bottom`, waving by the
+    factor `taper` (`LayerWaves.taper`), lies from it below the phantom-frame point (x, y)."""
     shift = 0.0
     for w in range(waves.shape[0]):
         shift += waves[w, 0] * math.sin(
             waves[w, 1] * x + waves[w, 2] * y + waves[w, 3] * bottom + waves[w, 4]
         )
-    return shift * min(1.0, bottom / taper_depth)
+    return shift * taper
 
 
 @njit(cache=True, inline="always")
-def layer_at(depth, x, y, bottoms, waves, taper_depth, reach):
+def layer_at(depth, x, y, bottoms, waves, taper, reach):
     """Index of the layer at `depth` below the skin above (x, y): boundary i (nominally at
-    `bottoms[i]`) moved by `boundary_shift`, which is evaluated only within `reach[i]` (the
-    most it can move, `LayerWaves.reach`) of it, so most points cost what flat layers did."""
+    `bottoms[i]`, waving by `taper[i]`) moved by `boundary_shift`, which is evaluated only
+    within `reach[i]` (the most it can move, `LayerWaves.reach`) of it, so most points cost
+    what flat layers did."""
     layer = 0
     while layer < bottoms.shape[0]:
         bottom = bottoms[layer]
         if depth <= bottom - reach[layer]:
             break
         if depth <= bottom + reach[layer] and depth <= bottom + boundary_shift(
-            x, y, bottom, waves, taper_depth
+            x, y, bottom, waves, taper[layer]
         ):
             break
         layer += 1

@@ -88,7 +88,7 @@ class Phantom:
         waves = spec.layer_waves or LayerWaves()
         self._layer_waves = (
             waves.waves(),
-            waves.wave_taper_depth,
+            waves.taper(self._layer_bottoms),
             waves.reach(self._layer_bottoms),
         )
         self._vessel_indexes: dict[float, TubeIndex] = {}

@@ -63,7 +63,7 @@ def sample_points(
     body_params,
     layer_bottoms,
     layer_waves,
-    wave_taper_depth,
+    wave_taper,
     wave_reach,
     blood_index,
     vessels,
@@ -125,7 +125,7 @@ def sample_points(
                 material[p] = blood_index
             else:
                 material[p] = layer_at(
-                    depth[p], x, y, layer_bottoms, layer_waves, wave_taper_depth, wave_reach
+                    depth[p], x, y, layer_bottoms, layer_waves, wave_taper, wave_reach
                 )
                 if not may_be_inside(x, y, z, structures):
                     continue  # in no structure: the layer's material stands
