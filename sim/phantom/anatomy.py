@@ -206,18 +206,43 @@ NODE_MEDIAL = (0.002, 0.016)
 nodes lie beside the femoral vein and the saphenous junction."""
 
 
-def build_nodes(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> tuple[VesselSpec, ...]:
+HILUM_RADIUS = (0.35, 0.6)
+"""Range of a node's hilum radius, over the node's: the fatty centre of a normal node, its
+hypoechoic cortex a band of a millimetre or two around it (a cortex thicker than about 3 mm
+is what reads as abnormal)."""
+HILUM_CORTEX = 0.0003
+"""Least cortex left between a hilum and its node's surface (m)."""
+HILUM_OFFSET = (0.0, 0.8)
+"""How far off the node's axis a hilum lies, as a share of the room its cortex leaves: the
+hilum is often eccentric, towards the side where the node's vessels enter."""
+
+
+@dataclass(frozen=True)
+class LymphNodes:
+    """Inguinal lymph nodes: their hypoechoic cortices (the nodes' outlines) and inside each
+    the echogenic fatty hilum, the two-tone oval a sonographer tells from a vessel."""
+
+    cortices: tuple[VesselSpec, ...] = ()
+    hila: tuple[VesselSpec, ...] = ()
+    """One per cortex, in the same order, each inside its cortex."""
+
+
+def build_nodes(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> LymphNodes:
     """Inguinal lymph nodes: `node_count` capsules (a cylinder with hemispherical caps) in the
     superficial fat, medial to the vein, each turned by its own angle in the skin's plane
     (`make_subject` leaves out a node that would touch a vessel). A
     node whose long axis runs along the leg shows in a transverse image as a disc of the
-    vessels' size, one across it as an oval: hypoechoic shapes that are not vessels."""
+    vessels' size, one across it as an oval: hypoechoic shapes that are not vessels, with an
+    echogenic hilum inside. Each hilum is a capsule on its node's axis segment moved sideways
+    by less than the node's radius minus its own and `HILUM_CORTEX`, so it lies wholly inside
+    the node; hila are drawn from a generator of their own, after every node, so adding them
+    moved no node."""
     from sim.phantom.spec import VesselSpec
 
     a = anatomy
     rng = np.random.default_rng([int(a.node_seed), 0x10DE])
     half_y = body.extent_y / 2 - a.node_length - a.node_radius
-    nodes = []
+    cortices = []
     for k in range(int(a.node_count)):
         y = rng.uniform(-half_y, half_y)
         centre = _Course(a, lateral, -body.extent_y / 2).vein(np.array([y]))[0]
@@ -227,8 +252,19 @@ def build_nodes(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> tupl
         centre[0] -= lateral * (reach + rng.uniform(*NODE_MEDIAL))
         centre[2] = -rng.uniform(*NODE_DEPTHS)
         points = np.stack([centre - axis, centre + axis])
-        nodes.append(VesselSpec(f"node{k}", 0, points, np.full(2, a.node_radius)))
-    return tuple(nodes)
+        cortices.append(VesselSpec(f"node{k}", 0, points, np.full(2, a.node_radius)))
+    hilum_rng = np.random.default_rng([int(a.node_seed), 0x4111])
+    hila = []
+    for k, cortex in enumerate(cortices):
+        radius = a.node_radius * hilum_rng.uniform(*HILUM_RADIUS)
+        room = max(a.node_radius - radius - HILUM_CORTEX, 0.0)
+        side = np.cross(np.diff(cortex.control_points, axis=0)[0], [0.0, 0.0, 1.0])
+        side /= np.linalg.norm(side)
+        angle = hilum_rng.uniform(0.0, 2.0 * math.pi)
+        offset = room * hilum_rng.uniform(*HILUM_OFFSET)
+        shift = offset * (math.cos(angle) * side + math.sin(angle) * np.array([0.0, 0.0, 1.0]))
+        hila.append(VesselSpec(f"hilum{k}", 0, cortex.control_points + shift, np.full(2, radius)))
+    return LymphNodes(tuple(cortices), tuple(hila))
 
 
 MUSCLE_GAP = (0.001, 0.010)

@@ -1,7 +1,7 @@
 """Phantom specs from YAML files (`assets/phantoms/NAME.yaml` or any path).
 
 A spec gives the body, tissue layers (outermost first; the last one, without a thickness,
-fills the rest), blood/wall/bone (and lymph node, muscle, nerve, fascicle) materials, and
+fills the rest), blood/wall/bone (and lymph node, hilum, muscle, nerve, fascicle) materials, and
 either `anatomy` (parameters of `FemoralAnatomy`, from which the femoral vessels, an optional
 femur, lymph nodes, muscle bellies and the femoral nerve are built) or explicit `vessels` and
 `bones` lists (name, label, control_points, radii, wall_thickness); or `extends: NAME` and
@@ -24,6 +24,7 @@ from sim.assets import assets_dir
 from sim.phantom.anatomy import (
     FemoralAnatomy,
     FemoralNerve,
+    LymphNodes,
     build_bones,
     build_muscles,
     build_nerve,
@@ -49,8 +50,8 @@ ANATOMY_KEYS = tuple(f.name for f in dataclasses.fields(FemoralAnatomy))
 PARAMETER_KEYS = (*TissueMechanics.keys(), *LayerWaves.keys())
 TOP_KEYS = {
     "name", "description", "side", "seed", "noise_level", "body", "layers", "blood", "wall",
-    "bone", "node", "muscle", "nerve", "fascicle", "anatomy", "vessels", "bones", "variation",
-    "texture_scale", "mechanics", "layer_waves",
+    "bone", "node", "hilum", "muscle", "nerve", "fascicle", "anatomy", "vessels", "bones",
+    "variation", "texture_scale", "mechanics", "layer_waves",
 }  # fmt: skip
 MATERIAL_KEYS = ("name", "echogenicity", "attenuation_db_cm_mhz", "impedance_mrayl")
 TEXTURE_KEYS = ("texture_variation", "texture_ridges")
@@ -169,7 +170,7 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
     if lateral is None:
         raise ValueError(f"side must be right or left, got {side!r}")
     body, layers = _body(data["body"]), _layers(data["layers"])
-    anatomy, nerve = None, FemoralNerve()
+    anatomy, nerve, nodes = None, FemoralNerve(), LymphNodes()
     if "anatomy" in data:
         anatomy = FemoralAnatomy(**_mapping(data["anatomy"], "anatomy", ANATOMY_KEYS))
         vessels = build_vessels(anatomy, body, lateral)
@@ -178,10 +179,11 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         muscles = build_muscles(anatomy, body, lateral)
         nerve = build_nerve(anatomy, body, lateral)
     else:
-        nodes, muscles = (), ()
+        muscles = ()
         vessels, bones = _tubes(data["vessels"], "vessels"), _tubes(data.get("bones", []), "bones")
     bone, node, muscle = data.get("bone"), data.get("node"), data.get("muscle")
     nerve_material, fascicle = data.get("nerve"), data.get("fascicle")
+    hilum = data.get("hilum")
     return PhantomSpec(
         name=str(data["name"]),
         side=side,
@@ -193,7 +195,9 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         vessels=vessels,
         bones=bones,
         node=None if node is None else _material(node, "node"),
-        nodes=nodes,
+        nodes=nodes.cortices,
+        hilum=None if hilum is None else _material(hilum, "hilum"),
+        hila=() if hilum is None else nodes.hila,
         muscle=None if muscle is None else _material(muscle, "muscle"),
         muscles=muscles,
         nerve=None if nerve_material is None else _material(nerve_material, "nerve"),

@@ -194,6 +194,8 @@ class Phantom:
             *grids["bone"],
             material["node"],
             *grids["node"],
+            material["hilum"],
+            *grids["hilum"],
             material["muscle"],
             *grids["muscle"],
             material["nerve"],

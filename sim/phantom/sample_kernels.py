@@ -77,6 +77,9 @@ def sample_points(
     node_index,
     nodes,
     node_mark,
+    hilum_index,
+    hila,
+    hilum_mark,
     muscle_index,
     muscles,
     muscle_mark,
@@ -98,10 +101,11 @@ def sample_points(
     `vessels` and the structures (`bones` ... `fascicles`) are `tube_kernels.Grid`s, the
     vessels' within `cutoff`; each structure's `*_mark` is 1 per segment; `structures` is the
     grid of all their tubes together, which tells at one lookup that most points lie in none.
-    A point in a vessel's lumen is blood, else in bone bone, else in a lymph node node, else in
-    the nerve nerve (or fascicle, in one of its fascicles), else in a muscle belly muscle, else
-    the layer at its depth, its boundaries moved by `layer_waves` (`layer_waves.layer_at`; a
-    material index of -1 means none of that kind exists).
+    A point in a vessel's lumen is blood, else in bone bone, else in a lymph node node (or
+    hilum, in its hilum), else in the nerve nerve (or fascicle, in one of its fascicles), else
+    in a muscle belly muscle, else the layer at its depth, its boundaries moved by
+    `layer_waves` (`layer_waves.layer_at`; a material index of -1 means none of that kind
+    exists).
     """
     for p in prange(points.shape[0]):
         x, y, z = points[p, 0], points[p, 1], points[p, 2]
@@ -133,6 +137,8 @@ def sample_points(
                     material[p] = bone_index
                 elif node_index >= 0 and inside_label(x, y, z, nodes, node_mark) > 0:
                     material[p] = node_index
+                    if hilum_index >= 0 and inside_label(x, y, z, hila, hilum_mark) > 0:
+                        material[p] = hilum_index
                 elif nerve_index >= 0 and inside_label(x, y, z, nerves, nerve_mark) > 0:
                     material[p] = nerve_index
                     if fascicle_index >= 0 and inside_label(x, y, z, fascicles, fascicle_mark) > 0:

@@ -189,6 +189,10 @@ class PhantomSpec:
     """A nerve fascicle (hypoechoic): the dark cells of the nerve's honeycomb."""
     fascicles: tuple[VesselSpec, ...] = ()
     """Fascicles; a point is fascicle only inside the nerve (its epineurium wraps them)."""
+    hilum: Material | None = None
+    """A lymph node's hilum (echogenic fat and vessels); without it, nodes have no hilum."""
+    hila: tuple[VesselSpec, ...] = ()
+    """Hila (`LymphNodes.hila`); a point is hilum only inside a node (its cortex wraps it)."""
     noise_level: float = 0.2
     texture_scale: tuple[float, float, float] = DEFAULT_TEXTURE_SCALE
     """Lattice spacing (m) of the texture fields along x, y, z: lobules and fascicles are
@@ -207,13 +211,14 @@ class PhantomSpec:
     def structures(self) -> dict[str, tuple[Material | None, tuple[VesselSpec, ...]]]:
         """Tissue inside tubes that carry no label, kind by kind (material, tubes), in the
         order their materials follow the layers' and blood's: bone, lymph node, muscle belly,
-        nerve, fascicle."""
+        nerve, fascicle, hilum."""
         return {
             "bone": (self.bone, self.bones),
             "node": (self.node, self.nodes),
             "muscle": (self.muscle, self.muscles),
             "nerve": (self.nerve, self.nerves),
             "fascicle": (self.fascicle, self.fascicles),
+            "hilum": (self.hilum, self.hila),
         }
 
     def __post_init__(self) -> None:
@@ -235,6 +240,8 @@ class PhantomSpec:
             raise ValueError("a nerve is given but no nerve material")
         if self.fascicles and (self.fascicle is None or not self.nerves):
             raise ValueError("fascicles need a fascicle material and a nerve to lie in")
+        if self.hila and (self.hilum is None or not self.nodes):
+            raise ValueError("hila need a hilum material and lymph nodes to lie in")
         if not self.noise_level >= 0:
             raise ValueError(f"noise_level must be >= 0, got {self.noise_level}")
         if len(self.texture_scale) != 3 or not min(self.texture_scale) > 0:

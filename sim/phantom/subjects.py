@@ -177,14 +177,14 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
         **_stream_draws(spec, subject, MUSCLE_KEYS, MUSCLE_STREAM),
         **_stream_draws(spec, subject, NERVE_KEYS, NERVE_STREAM),
     )
-    nodes, muscles = (  # one in a vessel's way is left out, not drawn again: no bias on vessels
-        tuple(
-            tube
-            for tube in build(anatomy, spec.body, spec.lateral_sign)
-            if vessels_fit(vessels, (tube,), spec.body, variation.min_gap)
-        )
-        for build in (build_nodes, build_muscles)
-    )
+
+    def clear_of_vessels(tube: VesselSpec) -> bool:
+        """A node or belly in a vessel's way is left out, not drawn again: no bias on vessels."""
+        return vessels_fit(vessels, (tube,), spec.body, variation.min_gap)
+
+    nodes = build_nodes(anatomy, spec.body, spec.lateral_sign)
+    kept = [k for k, cortex in enumerate(nodes.cortices) if clear_of_vessels(cortex)]
+    muscles = tuple(filter(clear_of_vessels, build_muscles(anatomy, spec.body, spec.lateral_sign)))
     layers = tuple(
         dataclasses.replace(
             layer,
@@ -204,7 +204,8 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
         layers=layers,
         vessels=vessels,
         bones=bones,
-        nodes=nodes,
+        nodes=tuple(nodes.cortices[k] for k in kept),
+        hila=tuple(nodes.hila[k] for k in kept) if spec.hilum is not None else (),
         muscles=muscles,
         nerves=nerve.lobes,
         fascicles=nerve.fascicles,

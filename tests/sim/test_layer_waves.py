@@ -58,6 +58,7 @@ def layers_only(spec: PhantomSpec, waves: LayerWaves | None) -> PhantomSpec:
         vessels=(),
         bones=(),
         nodes=(),
+        hila=(),
         muscles=(),
         nerves=(),
         fascicles=(),

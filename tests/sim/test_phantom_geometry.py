@@ -202,13 +202,13 @@ def test_mesh_rejects_unknown_parts(default_phantom: Phantom) -> None:
 @pytest.mark.parametrize("subject", [0, 3])
 def test_structure_materials_match_brute_force_point_in_tube(subject: int) -> None:
     """Every point's material against the structures' own tubes, by brute force: a vessel's
-    lumen is blood, else bone, lymph node, nerve (a fascicle inside it), muscle belly in that
-    order, else a layer's material; so the one-lookup shortcut for points in no structure
-    (`Phantom._structure_union`) changes nothing."""
+    lumen is blood, else bone, lymph node (a hilum inside it), nerve (a fascicle inside it),
+    muscle belly in that order, else a layer's material; so the one-lookup shortcut for points
+    in no structure (`Phantom._structure_union`) changes nothing."""
     spec = make_subject(load_phantom("femoral"), subject)
     phantom = Phantom(spec)
     kinds = {kind: pair for kind, pair in spec.structures().items() if pair[1]}
-    assert set(kinds) >= {"bone", "muscle", "nerve", "fascicle"}
+    assert set(kinds) >= {"bone", "muscle", "nerve", "fascicle", "hilum"}
     rng = np.random.default_rng(subject)
     centres = np.concatenate([t.control_points for _, tubes in kinds.values() for t in tubes])
     points = centres[rng.integers(0, len(centres), 4000)] + rng.normal(0.0, 4e-3, (4000, 3))
@@ -229,6 +229,9 @@ def test_structure_materials_match_brute_force_point_in_tube(subject: int) -> No
     expected[(expected == nerve) & inside["fascicle"]] = phantom.materials.index(
         kinds["fascicle"][0]
     )
+    if "hilum" in kinds:  # a node's hilum inside its cortex
+        node = phantom.materials.index(kinds["node"][0])
+        expected[(expected == node) & inside["hilum"]] = phantom.materials.index(kinds["hilum"][0])
     material = phantom.sample(points).material
     in_structure = expected >= 0
     assert in_structure.sum() > 500 and (~in_structure).sum() > 500

@@ -111,34 +111,52 @@ def capsule_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray, radius: f
     return np.linalg.norm(points - (a + t[:, None] * axis), axis=1) - radius
 
 
-def test_lymph_nodes_are_node_material_where_their_capsules_are_and_label_nothing() -> None:
-    """Each subject's inguinal nodes, against the analytic capsule: points inside are the node
-    material (label 0: a node is not a vessel), points outside are the layer at their depth;
-    every node clears the vessels by min_gap and lies medial to the vein."""
+def test_lymph_nodes_are_node_or_hilum_material_where_their_capsules_are_and_label_nothing() -> (
+    None
+):
+    """Each subject's inguinal nodes, against the analytic capsules: points inside a node are
+    the node (cortex) material, or the hilum material inside its hilum, label 0 either way (a
+    node is not a vessel); points outside are the layer at their depth. Every hilum lies inside
+    its node with at least `HILUM_CORTEX` of cortex round it; every node clears the vessels by
+    min_gap and lies medial to the vein."""
     from sim.phantom import load_phantom
+    from sim.phantom.anatomy import HILUM_CORTEX
     from sim.phantom.subjects import make_subject
 
     nominal = load_phantom("femoral")
     subject = next(s for s in (make_subject(nominal, k) for k in range(10)) if len(s.nodes) >= 2)
+    assert len(subject.hila) == len(subject.nodes)
     phantom = Phantom(subject)
-    node_material = [m.name for m in phantom.materials].index("lymph node")
-    assert phantom.materials[node_material].name == "lymph node"
+    names = [m.name for m in phantom.materials]
+    node_material, hilum_material = names.index("lymph node"), names.index("lymph node hilum")
     rng = np.random.default_rng(3)
-    for node in subject.nodes:
+
+    def inside_any(points: np.ndarray, tubes) -> np.ndarray:
+        """Signed distance to the nearest of `tubes` (nodes may touch one another)."""
+        return np.min(
+            [capsule_distance(points, *t.control_points, float(t.radii[0])) for t in tubes], axis=0
+        )
+
+    for node, hilum in zip(subject.nodes, subject.hila, strict=True):
         a, b = node.control_points
         radius = float(node.radii[0])
         centre = (a + b) / 2
-        points = centre + rng.uniform(-1.0, 1.0, (4000, 3)) * (np.abs(b - a) / 2 + 1.5 * radius)
-        distance = np.min(  # nodes may touch one another: inside any is node material
-            [capsule_distance(points, *n.control_points, float(n.radii[0])) for n in subject.nodes],
-            axis=0,
+        points = centre + rng.uniform(-1.0, 1.0, (6000, 3)) * (np.abs(b - a) / 2 + 1.5 * radius)
+        in_hilum = capsule_distance(points, *hilum.control_points, float(hilum.radii[0])) < 0
+        assert in_hilum.sum() > 100
+        own = capsule_distance(points[in_hilum], a, b, radius)
+        assert own.max() <= -HILUM_CORTEX + 1e-9  # the hilum wrapped in cortex
+        node_distance, hilum_distance = (
+            inside_any(points, subject.nodes),
+            inside_any(points, subject.hila),
         )
-        clear = np.abs(distance) > 1e-6
+        clear = (np.abs(node_distance) > 1e-6) & (np.abs(hilum_distance) > 1e-6)
         sample = phantom.sample(points[clear])
-        inside = distance[clear] < 0
-        assert inside.sum() > 200 and (~inside).sum() > 200
-        assert (sample.material[inside] == node_material).all()
-        assert (sample.material[~inside] != node_material).all()
+        inside, hilar = node_distance[clear] < 0, hilum_distance[clear] < 0
+        assert (inside & ~hilar).sum() > 200 and hilar.sum() > 100 and (~inside).sum() > 200
+        assert (sample.material[inside & ~hilar] == node_material).all()
+        assert (sample.material[hilar] == hilum_material).all()
+        assert not np.isin(sample.material[~inside], [node_material, hilum_material]).any()
         assert (sample.label[inside] == 0).all()
         vein = next(v for v in subject.vessels if v.name == "CFV")
         assert (centre[0] - vein.control_points[:, 0].mean()) * subject.lateral_sign < 0  # medial
@@ -146,3 +164,25 @@ def test_lymph_nodes_are_node_material_where_their_capsules_are_and_label_nothin
             assert (
                 phantom.vessel_sdf(points[clear][inside], label).min() >= subject.variation.min_gap
             )
+
+
+def test_hila_moved_no_node_and_need_their_material_and_nodes() -> None:
+    """Hila are drawn from a generator of their own: a spec without the hilum material gives
+    the same subjects, nodes and all, only without hila; a hilum with no node to lie in, or no
+    material, is refused in one line."""
+    import dataclasses
+
+    from sim.phantom import load_phantom
+    from sim.phantom.subjects import make_subject
+
+    nominal = load_phantom("femoral")
+    without = dataclasses.replace(nominal, hilum=None, hila=())
+    for k in range(4):
+        subject, plain = make_subject(nominal, k), make_subject(without, k)
+        assert subject.nodes == plain.nodes and subject.vessels == plain.vessels
+        assert subject.muscles == plain.muscles and subject.nerves == plain.nerves
+        assert len(subject.hila) == len(subject.nodes) and plain.hila == ()
+    with pytest.raises(ValueError, match="hila need a hilum material and lymph nodes"):
+        dataclasses.replace(nominal, hilum=None)
+    with pytest.raises(ValueError, match="hila need a hilum material and lymph nodes"):
+        dataclasses.replace(nominal, nodes=())
