@@ -290,7 +290,7 @@ def test_random_presets_are_seeded_and_within_their_ranges() -> None:
         assert preset.tgc_attenuation is not None
         assert TGC_ATTENUATION_RANGE[0] <= preset.tgc_attenuation <= TGC_ATTENUATION_RANGE[1]
         assert preset.settings().tgc_attenuation == preset.tgc_attenuation
-        assert preset.speckle_smoothing_axial is None  # as across the beam
+        assert preset.speckle_smoothing_axial == 0.0  # across the beam only
         assert 0.0 <= preset.speckle_smoothing <= RANDOM_RANGES["speckle_smoothing"][1]
     assert scanner_preset("random-3") == random_preset(3)
     assert scanner_preset("vascular") is PRESETS["vascular"]
