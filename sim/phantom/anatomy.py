@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from sim.phantom.spec import BodySpec, VesselSpec
 
 CONTROL_STEP = 0.010
@@ -226,6 +228,15 @@ class LymphNodes:
     hila: tuple[VesselSpec, ...] = ()
     """One per cortex, in the same order, each inside its cortex."""
 
+    def select(
+        self, kept: Sequence[int] | None = None, *, with_hila: bool = True
+    ) -> tuple[tuple[VesselSpec, ...], tuple[VesselSpec, ...]]:
+        """`PhantomSpec`'s `nodes` and `hila` for the nodes `kept` (all when None), each
+        with its hilum; no hila when the spec has no hilum material (`with_hila` False)."""
+        kept = range(len(self.cortices)) if kept is None else kept
+        cortices = tuple(self.cortices[k] for k in kept)
+        return cortices, tuple(self.hila[k] for k in kept) if with_hila else ()
+
 
 def build_nodes(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> LymphNodes:
     """Inguinal lymph nodes: `node_count` capsules (a cylinder with hemispherical caps) in the
@@ -254,15 +265,16 @@ def build_nodes(anatomy: FemoralAnatomy, body: BodySpec, lateral: float) -> Lymp
         points = np.stack([centre - axis, centre + axis])
         cortices.append(VesselSpec(f"node{k}", 0, points, np.full(2, a.node_radius)))
     hilum_rng = np.random.default_rng([int(a.node_seed), 0x4111])
+    up = np.array([0.0, 0.0, 1.0])
     hila = []
     for k, cortex in enumerate(cortices):
         radius = a.node_radius * hilum_rng.uniform(*HILUM_RADIUS)
         room = max(a.node_radius - radius - HILUM_CORTEX, 0.0)
-        side = np.cross(np.diff(cortex.control_points, axis=0)[0], [0.0, 0.0, 1.0])
+        side = np.cross(np.diff(cortex.control_points, axis=0)[0], up)
         side /= np.linalg.norm(side)
         angle = hilum_rng.uniform(0.0, 2.0 * math.pi)
         offset = room * hilum_rng.uniform(*HILUM_OFFSET)
-        shift = offset * (math.cos(angle) * side + math.sin(angle) * np.array([0.0, 0.0, 1.0]))
+        shift = offset * (math.cos(angle) * side + math.sin(angle) * up)
         hila.append(VesselSpec(f"hilum{k}", 0, cortex.control_points + shift, np.full(2, radius)))
     return LymphNodes(tuple(cortices), tuple(hila))
 

@@ -184,6 +184,7 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
     bone, node, muscle = data.get("bone"), data.get("node"), data.get("muscle")
     nerve_material, fascicle = data.get("nerve"), data.get("fascicle")
     hilum = data.get("hilum")
+    node_tubes, hila = nodes.select(with_hila=hilum is not None)
     return PhantomSpec(
         name=str(data["name"]),
         side=side,
@@ -195,9 +196,9 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
         vessels=vessels,
         bones=bones,
         node=None if node is None else _material(node, "node"),
-        nodes=nodes.cortices,
+        nodes=node_tubes,
         hilum=None if hilum is None else _material(hilum, "hilum"),
-        hila=() if hilum is None else nodes.hila,
+        hila=hila,
         muscle=None if muscle is None else _material(muscle, "muscle"),
         muscles=muscles,
         nerve=None if nerve_material is None else _material(nerve_material, "nerve"),

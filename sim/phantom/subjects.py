@@ -184,6 +184,7 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
 
     nodes = build_nodes(anatomy, spec.body, spec.lateral_sign)
     kept = [k for k, cortex in enumerate(nodes.cortices) if clear_of_vessels(cortex)]
+    node_tubes, hila = nodes.select(kept, with_hila=spec.hilum is not None)
     muscles = tuple(filter(clear_of_vessels, build_muscles(anatomy, spec.body, spec.lateral_sign)))
     layers = tuple(
         dataclasses.replace(
@@ -204,8 +205,8 @@ def make_subject(spec: PhantomSpec, subject: int) -> PhantomSpec:
         layers=layers,
         vessels=vessels,
         bones=bones,
-        nodes=tuple(nodes.cortices[k] for k in kept),
-        hila=tuple(nodes.hila[k] for k in kept) if spec.hilum is not None else (),
+        nodes=node_tubes,
+        hila=hila,
         muscles=muscles,
         nerves=nerve.lobes,
         fascicles=nerve.fascicles,

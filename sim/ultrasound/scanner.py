@@ -58,7 +58,7 @@ class ScannerPreset:
     """Gaussian sigma (m) of the speckle-reduction filter across the beam."""
     speckle_smoothing_axial: float | None = None
     """The same along the beam (`UltrasoundSettings.speckle_smoothing_axial`); None: as
-    across it (every preset, `random_preset`'s included; see `RANDOM_RANGES`)."""
+    across it (the named presets); 0 in `random_preset`'s (see `RANDOM_RANGES`)."""
     clutter_db: float | None = -6.0
     """Side-lobe haze in lumens (`UltrasoundSettings.clutter_db`); see `RANDOM_RANGES`."""
     clutter_spread: float = 0.1

@@ -131,7 +131,7 @@ def test_lymph_nodes_are_node_or_hilum_material_where_their_capsules_are_and_lab
     node_material, hilum_material = names.index("lymph node"), names.index("lymph node hilum")
     rng = np.random.default_rng(3)
 
-    def inside_any(points: np.ndarray, tubes) -> np.ndarray:
+    def nearest_distance(points: np.ndarray, tubes) -> np.ndarray:
         """Signed distance to the nearest of `tubes` (nodes may touch one another)."""
         return np.min(
             [capsule_distance(points, *t.control_points, float(t.radii[0])) for t in tubes], axis=0
@@ -147,8 +147,8 @@ def test_lymph_nodes_are_node_or_hilum_material_where_their_capsules_are_and_lab
         own = capsule_distance(points[in_hilum], a, b, radius)
         assert own.max() <= -HILUM_CORTEX + 1e-9  # the hilum wrapped in cortex
         node_distance, hilum_distance = (
-            inside_any(points, subject.nodes),
-            inside_any(points, subject.hila),
+            nearest_distance(points, subject.nodes),
+            nearest_distance(points, subject.hila),
         )
         clear = (np.abs(node_distance) > 1e-6) & (np.abs(hilum_distance) > 1e-6)
         sample = phantom.sample(points[clear])
