@@ -68,6 +68,15 @@ REAL_SUBJECT = "real"
 SIM_ONLY_FOLDER, CHECKPOINT = "sim_only", "checkpoint.pt"
 """The simulation-only model's folder in the output, and a trained unit's checkpoint."""
 
+CURVE_FIELDS = (
+    "label_counts",
+    "splits",
+    "fine_tune_epochs",
+    "fine_tune_epoch_images",
+    "minimum_test_images",
+)
+"""`Sim2RealSettings` fields that only the few-label curve reads."""
+
 
 @dataclass(frozen=True)
 class Sim2RealSettings:
@@ -219,9 +228,15 @@ class Sim2RealSettings:
         return json.loads(json.dumps(dataclasses.asdict(self)))
 
     def unit_key(self) -> dict:
-        """`to_dict` without `ensemble`: what one training run's result depends on (a member
-        is the same run whatever the ensemble's size)."""
+        """`to_dict` without `ensemble`: what a fine-tuning's result depends on (a member is
+        the same run whatever the ensemble's size)."""
         return {name: value for name, value in self.to_dict().items() if name != "ensemble"}
+
+    def simulation_only_key(self) -> dict:
+        """`unit_key` without the few-label curve's settings (`CURVE_FIELDS`): what the
+        simulation-only training depends on, so that asking for another curve from the same
+        simulation reuses its model instead of training it again."""
+        return {name: v for name, v in self.unit_key().items() if name not in CURVE_FIELDS}
 
 
 SIM2REAL_PRESETS: dict[str, Sim2RealSettings] = {

@@ -60,7 +60,7 @@ class SimOnlyUnit:
     def key(self) -> dict:
         return {
             "unit": "simulation only",
-            "settings": self.settings.unit_key(),
+            "settings": self.settings.simulation_only_key(),
             "seed": self.seed,
             "sweeps": list(self.sweep_provenance),
             "device": self.device,

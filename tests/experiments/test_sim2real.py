@@ -319,11 +319,16 @@ def test_an_ensemble_is_its_members_runs_and_scores_by_their_mean_probabilities(
     assert results["curve"][0]["iou"] == pytest.approx(zero_intersection / zero_union)
     assert "ensemble of 2" in (out / "report.md").read_text()
 
-    # a member is the same run whatever the ensemble's size: one model from it trains nothing
+    # a member is the same run whatever the ensemble's size or the curve's settings: one
+    # model from it, with another curve asked for, trains no simulation-only model again
     stamp = (out / "sim_only" / "checkpoint.pt").stat().st_mtime_ns
-    single = run_sim2real(dataclasses.replace(settings, ensemble=1), real, out, seed=3,
-                          device="cpu", executor=in_process, progress=False)  # fmt: skip
+    other_curve = dataclasses.replace(
+        settings, ensemble=1, splits=2, fine_tune_epochs=3, minimum_test_images=5
+    )
+    single = run_sim2real(other_curve, real, out, seed=3, device="cpu", executor=in_process,
+                          progress=False)  # fmt: skip
     assert (out / "sim_only" / "checkpoint.pt").stat().st_mtime_ns == stamp
+    assert len(single.splits) == 2
     assert single.members == () and single.to_dict()["sim_only"]["members"] == []
     assert single.to_dict()["sim_only"]["pooled"] == sim_only["members"][0]["pooled"]
 
