@@ -13,7 +13,7 @@ from resus.cli.evaluate import read_image_folders
 from resus.cli.executor_options import AddressOption, ExecutorOption, JobsOption
 from resus.cli.experiment import PresetOption, ReportFolderOption, run_options
 from resus.cli.options import DeviceOption
-from resus.cli.parsers import flag_error
+from resus.cli.parsers import flag_error, parse_numbers
 from resus.errors import ResusError
 
 
@@ -36,6 +36,17 @@ def register(group: typer.Typer) -> None:
             typer.Option(
                 min=1, help="Simulation-only models averaged (the preset's when not given)."
             ),
+        ] = None,
+        label_counts: Annotated[
+            str | None,
+            typer.Option(
+                help="The curve's k, e.g. 0,25,100: real labels per fine-tuning (the preset's "
+                "0,5,10,25,50,100 when not given)."
+            ),
+        ] = None,
+        splits: Annotated[
+            int | None,
+            typer.Option(min=1, help="Random splits the curve is averaged over (the preset's)."),
         ] = None,
         data: Annotated[
             Path | None, typer.Option(help="Scratch folder for the sweeps (default: OUT/data).")
@@ -60,6 +71,12 @@ def register(group: typer.Typer) -> None:
                 settings = dataclasses.replace(settings, training=training)
         if ensemble is not None:
             settings = dataclasses.replace(settings, ensemble=ensemble)
+        if splits is not None:
+            settings = dataclasses.replace(settings, splits=splits)
+        if label_counts is not None:
+            with flag_error("--label-counts"):
+                counts = parse_numbers(label_counts, "--label-counts", kind=int)
+                settings = dataclasses.replace(settings, label_counts=counts)
         with flag_error("--device"):
             resolve_device(device)
         with flag_error("--real"):

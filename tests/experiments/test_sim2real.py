@@ -360,6 +360,35 @@ def test_cli_refuses_a_real_folder_it_cannot_use(monkeypatch, capsys, tmp_path, 
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (
+            ("--label-counts", "25,5"),
+            "--label-counts: Sim2RealSettings.label_counts must be distinct, increasing and "
+            ">= 0, got (25, 5)",
+        ),
+        (
+            ("--label-counts", "5,many"),
+            "--label-counts: expected a list of comma-separated integers, got '5,many'",
+        ),
+        # the curve asked for reaches the check of the real folder: 20 + 20 is more than 30
+        (
+            ("--label-counts", "0,20", "--splits", "2"),
+            "--real: 30 real images: the few-label curve needs 20 for the largest k and 20",
+        ),
+    ],
+)
+def test_cli_the_curve_asked_for_is_checked_before_any_work(
+    monkeypatch, capsys, tmp_path, options, message
+):
+    real = write_real_folder(tmp_path / "few", 30)
+    status, err = run_sim2real_cli(monkeypatch, capsys, real, tmp_path / "o", *options)
+    lines = err.strip().splitlines()
+    assert status == 2 and len(lines) == 1 and lines[0].startswith(f"error: {message}"), err
+    assert not (tmp_path / "o").exists()
+
+
 def test_each_subject_is_scanned_its_own_way_within_the_settings_bounds():
     sweeps = [subject_sweep(TINY, k, 3) for k in range(40)]
     offsets = np.array([s.start[0] - TINY.sweep.start[0] for s in sweeps])
