@@ -602,6 +602,9 @@ class Sim2RealResult:
     seed: int
     command: str
     real_folder: Path
+    out: Path
+    """The output folder: results.json names what lies under it relative to it, so a copied
+    report still points at its own sweeps."""
     sweeps: tuple[Path, ...]
     sim_only: Evaluation
     """The simulation-only model (the ensemble, if more than one) on every real image,
@@ -619,7 +622,7 @@ class Sim2RealResult:
             "seed": self.seed,
             "settings": self.settings.to_dict(),
             "real_folder": str(self.real_folder),
-            "sweeps": [str(path) for path in self.sweeps],
+            "sweeps": [str(path_in(self.out, path)) for path in self.sweeps],
             "sim_only": {
                 "checkpoints": [
                     str(member_folder(Path(SIM_ONLY_FOLDER), m) / CHECKPOINT)
@@ -641,6 +644,11 @@ class Sim2RealResult:
                 for initialisation, by_k in summary.items()
             },
         }
+
+
+def path_in(folder: Path, path: Path) -> Path:
+    """`path` relative to `folder` when it lies under it, else as it is."""
+    return path.relative_to(folder) if path.is_relative_to(folder) else path
 
 
 def member_folder(folder: Path, member: int) -> Path:
@@ -730,6 +738,7 @@ def run_sim2real(
         seed,
         command,
         real_folder,
+        out,
         tuple(sweeps),
         evaluation,
         member_scores,

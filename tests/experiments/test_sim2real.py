@@ -200,7 +200,8 @@ def test_a_small_run_end_to_end(tmp_path):
     model = load_model(out / "sim_only" / "checkpoint.pt", "cpu")
     assert sorted(model.config["train_subjects"]) == ["femoral/0", "femoral/1"]
     assert model.config["augment"] and model.config["preset"]["augmentation"]["framing_p"] == 0.5
-    assert [Path(p).name for p in results["sweeps"]] == ["subject_00.h5", "subject_01.h5"]
+    assert results["sweeps"] == ["data/sweeps/subject_00.h5", "data/sweeps/subject_01.h5"]
+    sweeps = [out / p for p in results["sweeps"]]  # under the output folder: relative to it
 
     # its score on every real image, counted independently from its own predictions
     vessel = results["sim_only"]["pooled"]["vessel"]
@@ -226,19 +227,18 @@ def test_a_small_run_end_to_end(tmp_path):
         assert not set(split["pool"]) & set(split["test"])
 
     # a rerun keeps the sweeps it finds, made from the same phantom, subject, seed and scanner
-    stamps = [Path(p).stat().st_mtime_ns for p in results["sweeps"]]
-    assert simulate_subjects(out / "data" / "sweeps", TINY, 3, in_process, progress=False) == [
-        Path(p) for p in results["sweeps"]
-    ]
-    assert [Path(p).stat().st_mtime_ns for p in results["sweeps"]] == stamps
+    stamps = [p.stat().st_mtime_ns for p in sweeps]
+    made = simulate_subjects(out / "data" / "sweeps", TINY, 3, in_process, progress=False)
+    assert made == sweeps
+    assert [p.stat().st_mtime_ns for p in sweeps] == stamps
     # ... and makes again one that another simulator made (its fingerprint differs)
-    with h5py.File(results["sweeps"][1], "r+") as sweep:
+    with h5py.File(sweeps[1], "r+") as sweep:
         provenance = json.loads(sweep.attrs["provenance"])
         sweep.attrs["provenance"] = json.dumps({**provenance, "simulator": "0" * 16})
     simulate_subjects(out / "data" / "sweeps", TINY, 3, in_process, progress=False)
-    assert Path(results["sweeps"][0]).stat().st_mtime_ns == stamps[0]
-    assert Path(results["sweeps"][1]).stat().st_mtime_ns != stamps[1]
-    with SweepReader(results["sweeps"][1]) as remade:
+    assert sweeps[0].stat().st_mtime_ns == stamps[0]
+    assert sweeps[1].stat().st_mtime_ns != stamps[1]
+    with SweepReader(sweeps[1]) as remade:
         assert remade.provenance == provenance
 
     # the fine-tunings in two worker processes give the same curve, to the last bit; the
