@@ -60,6 +60,15 @@ lumen (where the wall's normal, the direction from the nearest lumen pixel, lies
 degrees of the rows) and above and below it (within 30 degrees of the columns, the beam): 1
 where the wall is no brighter than the tissue beyond it.
 
+The tissue round a vessel. What lies around a lumen, past its wall, decides what a dark
+region looks like to a reader: real femoral lumens lie in brighter tissue than the fat beside
+it (the connective tissue of the vessels' sheath), a simulator that puts them straight into the
+fat draws a dark moat round a thin bright ring. For each region, the mean grey of the ring one
+to four wall bands out (other vessels left out) beside the lumen, above it and below it (the
+wall figures' sectors), over the mean grey of the tissue in those same pixels' rows (vessels
+left out, the whole width of the image): 1 where the vessel's surroundings are as bright as
+the rest of their depth, whatever the depth's own brightness.
+
 Bright lines. Fasciae, septa and perimysium echo where the beam meets them square: real images
 show them as streaks across the beam, a simulator that draws them alike at every angle as a
 honeycomb with a tail of steep lines. The tissue's bright lines (clear of the vessels by the
@@ -323,6 +332,13 @@ class VesselShapeStats:
     lumen_middle_quantiles: tuple[float, ...] | None
     """Quantiles `QUANTILES` of the regions' interior grey in the middle third of its columns
     over the outer thirds' (module docstring; None when no region gives one)."""
+    round_beside_quantiles: tuple[float, ...] | None = None
+    """Quantiles `QUANTILES` of the tissue round the regions, beside them, over their rows'
+    (module docstring)."""
+    round_above_quantiles: tuple[float, ...] | None = None
+    """The same above them."""
+    round_below_quantiles: tuple[float, ...] | None = None
+    """The same below them."""
 
 
 @dataclass(frozen=True)
@@ -388,7 +404,7 @@ def _shapes(
 
 def _contrasts(figure: str, quantile: int) -> Callable[[RealismStats], float | None]:
     """A table row's getter of one quantile of the regions' contrasts `figure` ("lumen",
-    "lumen_middle", "wall_lateral" or "wall_axial")."""
+    "lumen_middle", "wall_lateral", "wall_axial" or "round_beside", "_above", "_below")."""
 
     def get(shapes: VesselShapeStats) -> float | None:
         quantiles = getattr(shapes, f"{figure}_quantiles")
@@ -482,6 +498,9 @@ TABLE: tuple[TableRow, ...] = (
         _contrasts("wall_axial", NINETIETH),
         2,
     ),
+    ("tissue round the lumen / its rows', beside, median", _contrasts("round_beside", MEDIAN), 2),
+    ("tissue round the lumen / its rows', above, median", _contrasts("round_above", MEDIAN), 2),
+    ("tissue round the lumen / its rows', below, median", _contrasts("round_below", MEDIAN), 2),
 )
 """The comparison's rows: label, the figure of a set, decimals shown. The first five are the
 issue's table; speckle rows are None for a set without tissue windows."""
@@ -675,8 +694,9 @@ class _Accumulator:
         self.grain.add(tissue_windows(image, usable, self.settings.grain_patch, self.settings))
         regions = _regions(vessel, self.settings.min_vessel_area)  # labelled once for both
         self.regions.extend(_region_shape(vessel, region) for region in regions)
+        settings = self.settings
         self.contrasts.extend(
-            _region_contrasts(image, vessel, region, self.settings.wall_band) for region in regions
+            vessel_contrasts(image, vessel, settings.min_vessel_area, settings.wall_band, regions)
         )
         self.cut += sum(is_cut(vessel.shape, region) for region in regions)
         if regions:
@@ -748,6 +768,9 @@ class _Accumulator:
             wall_axial_quantiles=_present_quantiles([c.above_below for c in self.contrasts]),
             lumen_quantiles=_present_quantiles([c.lumen for c in self.contrasts]),
             lumen_middle_quantiles=_present_quantiles([c.lumen_middle for c in self.contrasts]),
+            round_beside_quantiles=_present_quantiles([c.round_beside for c in self.contrasts]),
+            round_above_quantiles=_present_quantiles([c.round_above for c in self.contrasts]),
+            round_below_quantiles=_present_quantiles([c.round_below for c in self.contrasts]),
         )
 
 
@@ -870,23 +893,40 @@ class VesselContrast(NamedTuple):
     lumen_middle: float | None
     """Interior grey in the middle third of the region's columns over the outer thirds'
     (None for a region that touches the image's side)."""
+    round_beside: float | None = None
+    """The ring 1-4 bands outside the lumen, beside it, over its rows' tissue."""
+    round_above: float | None = None
+    """The same above the lumen."""
+    round_below: float | None = None
+    """The same below the lumen."""
 
 
 def vessel_contrasts(
-    image: np.ndarray, vessel: np.ndarray, min_area: float, band: float
+    image: np.ndarray,
+    vessel: np.ndarray,
+    min_area: float,
+    band: float,
+    regions: list[Region] | None = None,
 ) -> list[VesselContrast]:
     """The lumen and wall contrasts of each vessel region of the imaged area `image` (module
     docstring): against the mean grey of the ring 2-4 `band`s of the imaged height outside the
     lumen (other vessels left out), the lumen's pixels more than a band inside its edge, and
     the wall's at most a band outside it, each wall pixel beside the lumen or above or below
     it by the direction from the nearest lumen pixel (the wall's normal), within `WALL_SECTOR`
-    of the rows or of the columns; and the interior's middle third of columns over its outer
-    thirds."""
-    return [_region_contrasts(image, vessel, region, band) for region in _regions(vessel, min_area)]
+    of the rows or of the columns; the interior's middle third of columns over its outer
+    thirds; and the ring 1-4 bands out over its rows' tissue. `regions`: the regions of at
+    least `min_area` (`_regions`), when they are already found."""
+    if regions is None:
+        regions = _regions(vessel, min_area)
+    if not regions:
+        return []
+    tissue = ~vessel
+    row_tissue = (image * tissue).sum(axis=1) / np.maximum(tissue.sum(axis=1), 1)
+    return [_region_contrasts(image, vessel, region, band, row_tissue) for region in regions]
 
 
 def _region_contrasts(
-    image: np.ndarray, vessel: np.ndarray, region: Region, band: float
+    image: np.ndarray, vessel: np.ndarray, region: Region, band: float, row_tissue: np.ndarray
 ) -> VesselContrast:
     """The lumen and wall contrasts of one region of `vessel` (`vessel_contrasts`)."""
     from scipy import ndimage
@@ -914,15 +954,20 @@ def _region_contrasts(
     angle = np.arctan2(np.abs(row - nearest_row), np.abs(col - nearest_col))
     grey = image[window].astype(np.float64)
     beside, above_below = angle <= WALL_SECTOR, angle >= math.pi / 2 - WALL_SECTOR
+    above, below = above_below & (row < nearest_row), above_below & (row > nearest_row)
+    ring = outside & (distance > width) & (distance <= 4 * width)
+    rows_tissue = np.broadcast_to(row_tissue[window[0]][:, None], ring.shape)
     first, stop = box[1].start - left, box[1].stop - left
     third = (stop - first) / 3
     middle = (col >= first + third) & (col < stop - third)
     cut = box[1].start == 0 or box[1].stop == vessel.shape[1]
+    sides = (beside, above, below)
     return VesselContrast(
         _mean_ratio(grey[interior], grey[far]),
         _mean_ratio(grey[near & beside], grey[far & beside]),
         _mean_ratio(grey[near & above_below], grey[far & above_below]),
         None if cut else _mean_ratio(grey[interior & middle], grey[interior & ~middle]),
+        *(_mean_ratio(grey[ring & side], rows_tissue[ring & side]) for side in sides),
     )
 
 

@@ -15,6 +15,7 @@ from scipy.spatial import cKDTree
 
 from resus.errors import ResusError
 from resus.experiments.realism import (
+    MEDIAN,
     QUANTILES,
     RAYLEIGH_LOG_STD_DB,
     ImageSet,
@@ -356,12 +357,12 @@ def test_vessel_contrasts_are_the_lumen_and_the_wall_over_the_ring_beyond_them()
     lumen[80:120, 80:140] = True
     image[lumen] = 10
     image[77:80, 80:140] = image[120:123, 80:140] = 100
-    ((inside, beside, above_below, middle),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
+    ((inside, beside, above_below, middle, *_),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
     assert inside == pytest.approx(0.2) and beside == 1.0 and middle == 1.0
     assert above_below == pytest.approx((360 * 100 + 4 * 50) / 364 / 50)
     # a wall drawn all round reads bright beside the lumen too
     image[~lumen & (ndimage.distance_transform_edt(~lumen) <= 3)] = 100
-    ((_, beside, _, _),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
+    ((_, beside, *_),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
     assert beside == 2.0
     shapes = measure(one_image(image, lumen)).vessel_shapes
     assert shapes is not None and shapes.wall_lateral_quantiles == (2.0,) * len(QUANTILES)
@@ -373,11 +374,35 @@ def test_vessel_contrasts_are_the_lumen_and_the_wall_over_the_ring_beyond_them()
     across = np.zeros(shape, bool)
     across[90:110] = True
     plain = np.full(shape, 50, np.uint8)
-    assert vessel_contrasts(plain, across, 0.0, band=0.015) == [(1.0, None, 1.0, None)]
+    assert vessel_contrasts(plain, across, 0.0, band=0.015) == [
+        (1.0, None, 1.0, None, None, 1.0, 1.0)
+    ]
     # a lumen too thin for an interior gives no lumen figure
     thin = np.zeros(shape, bool)
     thin[100:104, 60:160] = True
     assert vessel_contrasts(plain, thin, 0.0, band=0.015)[0].lumen is None
+
+
+def test_the_tissue_round_a_lumen_is_read_against_its_own_rows() -> None:
+    """Tissue whose grey rises with depth (row r at 20 + r / 4) round a lumen at grey 10: the
+    ring 1-4 bands out (3-12 px) reads 1 beside, above and below the lumen, however bright its
+    rows are. A halo 1.5 times as bright within 12 px of the lumen reads 1.5, less what it adds
+    to its own rows' mean (at most 3 %: 84 halo pixels in a row of 2000)."""
+    shape = (200, 2000)
+    rows = (20 + np.arange(shape[0]) / 4)[:, None]
+    lumen = np.zeros(shape, bool)
+    lumen[80:120, 960:1020] = True
+    image = np.where(lumen, 10, np.broadcast_to(rows, shape)).astype(np.uint8)
+    ((*_, beside, above, below),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
+    assert beside == above == below == pytest.approx(1.0, abs=0.01)
+    halo = ~lumen & (ndimage.distance_transform_edt(~lumen) <= 12)
+    image = np.where(halo, 1.5 * rows, image).astype(np.uint8)
+    ((*_, beside, above, below),) = vessel_contrasts(image, lumen, 0.0, band=0.015)
+    for figure in (beside, above, below):
+        assert 1.45 < figure <= 1.5 + 0.01
+    shapes = measure(one_image(image, lumen)).vessel_shapes
+    assert shapes is not None and shapes.round_beside_quantiles is not None
+    assert shapes.round_beside_quantiles[MEDIAN] == pytest.approx(beside)
 
 
 def test_a_lumen_dark_down_its_middle_reads_below_one() -> None:
@@ -424,7 +449,7 @@ def test_a_wall_that_scatters_like_tissue_shows_above_and_below_the_lumen_not_be
             simulator = UltrasoundSimulator(phantom, vascular.probe(), vascular.settings())
             pose = probe_pose_on_skin(phantom, spec.anatomy.centre_offset, -0.03)
             image, labels = simulator.render(pose)
-            for _, side, axial, _ in vessel_contrasts(image, labels > 0, 0.0005, 0.015):
+            for _, side, axial, *_ in vessel_contrasts(image, labels > 0, 0.0005, 0.015):
                 beside += [] if side is None else [side]
                 above_below += [] if axial is None else [axial]
         return float(np.median(beside)), float(np.median(above_below))
