@@ -68,13 +68,10 @@ REAL_SUBJECT = "real"
 SIM_ONLY_FOLDER, CHECKPOINT = "sim_only", "checkpoint.pt"
 """The simulation-only model's folder in the output, and a trained unit's checkpoint."""
 
-CURVE_FIELDS = (
-    "label_counts",
-    "splits",
-    "fine_tune_epochs",
-    "fine_tune_epoch_images",
-    "minimum_test_images",
-)
+CURVE_SHAPE_FIELDS = ("label_counts", "splits", "minimum_test_images")
+"""`Sim2RealSettings` fields that choose which fine-tunings the curve runs (its k, its splits
+and their test sets, which each fine-tuning's key names itself), not what any one computes."""
+CURVE_FIELDS = (*CURVE_SHAPE_FIELDS, "fine_tune_epochs", "fine_tune_epoch_images")
 """`Sim2RealSettings` fields that only the few-label curve reads."""
 
 
@@ -237,6 +234,12 @@ class Sim2RealSettings:
         simulation-only training depends on, so that asking for another curve from the same
         simulation reuses its model instead of training it again."""
         return {name: v for name, v in self.unit_key().items() if name not in CURVE_FIELDS}
+
+    def fine_tuning_key(self) -> dict:
+        """`unit_key` without the curve's shape (`CURVE_SHAPE_FIELDS`): what one fine-tuning
+        depends on besides its split, k and start, so that a curve asked for with more k
+        reuses the fine-tunings it shares with one run before."""
+        return {name: v for name, v in self.unit_key().items() if name not in CURVE_SHAPE_FIELDS}
 
 
 SIM2REAL_PRESETS: dict[str, Sim2RealSettings] = {

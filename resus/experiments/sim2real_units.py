@@ -130,7 +130,7 @@ class FineTuneUnit:
             "split": {"pool": list(self.split.pool), "test": list(self.split.test)},
             "initialisation": self.initialisation,
             "labels": self.labels,
-            "settings": self.settings.unit_key(),
+            "settings": self.settings.fine_tuning_key(),
             "seed": self.seed,
             "device": self.device,
             "torch_threads": self.settings.training_cpus,

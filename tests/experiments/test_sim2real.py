@@ -262,6 +262,18 @@ def test_a_small_run_end_to_end(tmp_path):
     assert [path.stat().st_mtime_ns for path in units] == stamps
     assert rerun.points == result.points
 
+    # a curve asked for with one more k trains that k alone: the fine-tunings it shares with
+    # the run before (same splits, since the largest k is the same) are kept
+    tuned = units
+    more = dataclasses.replace(TINY, label_counts=(0, 1, 2, 4), minimum_test_images=5)
+    longer = run_sim2real(more, real, out, seed=3, device="cpu", executor=in_process,
+                         progress=False)  # fmt: skip
+    assert [path.stat().st_mtime_ns for path in tuned] == stamps
+    assert sorted((out / "few_label").glob("*/unit.json")) == sorted(
+        [*tuned, *(out / "few_label").glob("*_k1_split*/unit.json")]
+    )
+    assert {p.labels for p in longer.points} == {0, 1, 2, 4}
+
 
 @pytest.mark.slow
 def test_an_ensemble_is_its_members_runs_and_scores_by_their_mean_probabilities(tmp_path):
