@@ -132,6 +132,7 @@ class FineTuneUnit:
             "labels": self.labels,
             "settings": self.settings.fine_tuning_key(),
             "seed": self.seed,
+            "training_seed": self.training_seed,
             "device": self.device,
             "torch_threads": self.settings.training_cpus,
             "shown": list(self.shown),
