@@ -332,12 +332,12 @@ class VesselShapeStats:
     lumen_middle_quantiles: tuple[float, ...] | None
     """Quantiles `QUANTILES` of the regions' interior grey in the middle third of its columns
     over the outer thirds' (module docstring; None when no region gives one)."""
-    round_beside_quantiles: tuple[float, ...] | None = None
+    round_beside_quantiles: tuple[float, ...] | None
     """Quantiles `QUANTILES` of the tissue round the regions, beside them, over their rows'
     (module docstring)."""
-    round_above_quantiles: tuple[float, ...] | None = None
+    round_above_quantiles: tuple[float, ...] | None
     """The same above them."""
-    round_below_quantiles: tuple[float, ...] | None = None
+    round_below_quantiles: tuple[float, ...] | None
     """The same below them."""
 
 
@@ -893,11 +893,11 @@ class VesselContrast(NamedTuple):
     lumen_middle: float | None
     """Interior grey in the middle third of the region's columns over the outer thirds'
     (None for a region that touches the image's side)."""
-    round_beside: float | None = None
+    round_beside: float | None
     """The ring 1-4 bands outside the lumen, beside it, over its rows' tissue."""
-    round_above: float | None = None
+    round_above: float | None
     """The same above the lumen."""
-    round_below: float | None = None
+    round_below: float | None
     """The same below the lumen."""
 
 
