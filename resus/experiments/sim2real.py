@@ -233,13 +233,17 @@ class Sim2RealSettings:
         """`unit_key` without the few-label curve's settings (`CURVE_FIELDS`): what the
         simulation-only training depends on, so that asking for another curve from the same
         simulation reuses its model instead of training it again."""
-        return {name: v for name, v in self.unit_key().items() if name not in CURVE_FIELDS}
+        return self._unit_key_without(CURVE_FIELDS)
 
     def fine_tuning_key(self) -> dict:
         """`unit_key` without the curve's shape (`CURVE_SHAPE_FIELDS`): what one fine-tuning
         depends on besides its split, k and start, so that a curve asked for with more k
         reuses the fine-tunings it shares with one run before."""
-        return {name: v for name, v in self.unit_key().items() if name not in CURVE_SHAPE_FIELDS}
+        return self._unit_key_without(CURVE_SHAPE_FIELDS)
+
+    def _unit_key_without(self, fields: tuple[str, ...]) -> dict:
+        """`unit_key` less `fields`."""
+        return {name: v for name, v in self.unit_key().items() if name not in fields}
 
 
 SIM2REAL_PRESETS: dict[str, Sim2RealSettings] = {

@@ -264,13 +264,12 @@ def test_a_small_run_end_to_end(tmp_path):
 
     # a curve asked for with one more k trains that k alone: the fine-tunings it shares with
     # the run before (same splits, since the largest k is the same) are kept
-    tuned = units
     more = dataclasses.replace(TINY, label_counts=(0, 1, 2, 4), minimum_test_images=5)
     longer = run_sim2real(more, real, out, seed=3, device="cpu", executor=in_process,
                          progress=False)  # fmt: skip
-    assert [path.stat().st_mtime_ns for path in tuned] == stamps
+    assert [path.stat().st_mtime_ns for path in units] == stamps
     assert sorted((out / "few_label").glob("*/unit.json")) == sorted(
-        [*tuned, *(out / "few_label").glob("*_k1_split*/unit.json")]
+        [*units, *(out / "few_label").glob("*_k1_split*/unit.json")]
     )
     assert {p.labels for p in longer.points} == {0, 1, 2, 4}
 
