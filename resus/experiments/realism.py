@@ -40,7 +40,10 @@ uniform ellipse of semi-axes a >= b gives a / b, and a one-pixel line stays fini
 and its centre's depth are shares of the imaged area and height, so that 256 px frames and
 512 px exports compare alike. A vein pressed flat shows as a region over `ELONGATED_ASPECT`
 times longer than wide: common in simulation at a heavy probe force, rare in real scans made
-with the light touch of a vascular examination.
+with the light touch of a vascular examination. How far a cross-section is from an ellipse:
+the overlap (IoU) of each region that the picture does not cut with the uniform ellipse of its
+centroid and second moments, 1 for an exact ellipse (up to its pixels' edges); a vein, whose
+thin wall takes the shape its neighbours press into it, is a rounded polygon more often.
 
 Vessel placement. Where the sonographer puts the vessels across the picture: each image's
 vessel centroid (the mean column of the pixels of its counted regions, a share of the imaged
@@ -321,6 +324,9 @@ class VesselShapeStats:
     """Share of the regions that touch the imaged area's side or bottom (cut by the picture)."""
     aspects: tuple[float, ...]
     """Every region's aspect, for the figure's distribution."""
+    ellipse_fit_quantiles: tuple[float, ...] | None
+    """Quantiles `QUANTILES` of the uncut regions' overlap (IoU) with their moment ellipse
+    (`ellipse_fit`; None when the picture cuts every region)."""
     wall_lateral_quantiles: tuple[float, ...] | None
     """Quantiles `QUANTILES` of the regions' wall grey over the tissue's beyond it, beside the
     lumen (module docstring; None when no region has enough pixels there)."""
@@ -402,9 +408,10 @@ def _shapes(
     return lambda stats: None if stats.vessel_shapes is None else get(stats.vessel_shapes)
 
 
-def _contrasts(figure: str, quantile: int) -> Callable[[RealismStats], float | None]:
-    """A table row's getter of one quantile of the regions' contrasts `figure` ("lumen",
-    "lumen_middle", "wall_lateral", "wall_axial" or "round_beside", "_above", "_below")."""
+def _per_vessel(figure: str, quantile: int) -> Callable[[RealismStats], float | None]:
+    """A table row's getter of one quantile of a per-region figure: `figure` a contrast
+    ("lumen", "lumen_middle", "wall_lateral", "wall_axial" or "round_beside", "_above",
+    "_below") or "ellipse_fit"."""
 
     def get(shapes: VesselShapeStats) -> float | None:
         quantiles = getattr(shapes, f"{figure}_quantiles")
@@ -469,6 +476,16 @@ TABLE: tuple[TableRow, ...] = (
         _shapes(lambda s: s.elongated_share),
         3,
     ),
+    (
+        "vessel outline / its moment ellipse (IoU), uncut, 10th percentile",
+        _per_vessel("ellipse_fit", TENTH),
+        3,
+    ),
+    (
+        "vessel outline / its moment ellipse (IoU), uncut, median",
+        _per_vessel("ellipse_fit", MEDIAN),
+        3,
+    ),
     ("vessel area, median (% of image)", _shapes(lambda s: 100 * s.area_quantiles[MEDIAN]), 2),
     ("vessel centre depth, median (share)", _shapes(lambda s: s.depth_quantiles[MEDIAN]), 3),
     (
@@ -482,25 +499,25 @@ TABLE: tuple[TableRow, ...] = (
         3,
     ),
     ("vessels cut by the picture's side or bottom (share)", _shapes(lambda s: s.cut_share), 3),
-    ("lumen / tissue around it, per vessel, 10th percentile", _contrasts("lumen", TENTH), 3),
-    ("lumen / tissue around it, per vessel, median", _contrasts("lumen", MEDIAN), 3),
-    ("lumen / tissue around it, per vessel, 90th percentile", _contrasts("lumen", NINETIETH), 3),
+    ("lumen / tissue around it, per vessel, 10th percentile", _per_vessel("lumen", TENTH), 3),
+    ("lumen / tissue around it, per vessel, median", _per_vessel("lumen", MEDIAN), 3),
+    ("lumen / tissue around it, per vessel, 90th percentile", _per_vessel("lumen", NINETIETH), 3),
     (
         "lumen middle / outer thirds, per vessel, 10th percentile",
-        _contrasts("lumen_middle", TENTH),
+        _per_vessel("lumen_middle", TENTH),
         3,
     ),
-    ("lumen middle / outer thirds, per vessel, median", _contrasts("lumen_middle", MEDIAN), 3),
-    ("wall / tissue beyond, beside the lumen, median", _contrasts("wall_lateral", MEDIAN), 2),
-    ("wall / tissue beyond, above and below, median", _contrasts("wall_axial", MEDIAN), 2),
+    ("lumen middle / outer thirds, per vessel, median", _per_vessel("lumen_middle", MEDIAN), 3),
+    ("wall / tissue beyond, beside the lumen, median", _per_vessel("wall_lateral", MEDIAN), 2),
+    ("wall / tissue beyond, above and below, median", _per_vessel("wall_axial", MEDIAN), 2),
     (
         "wall / tissue beyond, above and below, 90th percentile",
-        _contrasts("wall_axial", NINETIETH),
+        _per_vessel("wall_axial", NINETIETH),
         2,
     ),
-    ("tissue round the lumen / its rows', beside, median", _contrasts("round_beside", MEDIAN), 2),
-    ("tissue round the lumen / its rows', above, median", _contrasts("round_above", MEDIAN), 2),
-    ("tissue round the lumen / its rows', below, median", _contrasts("round_below", MEDIAN), 2),
+    ("tissue round the lumen / its rows', beside, median", _per_vessel("round_beside", MEDIAN), 2),
+    ("tissue round the lumen / its rows', above, median", _per_vessel("round_above", MEDIAN), 2),
+    ("tissue round the lumen / its rows', below, median", _per_vessel("round_below", MEDIAN), 2),
 )
 """The comparison's rows: label, the figure of a set, decimals shown. The first five are the
 issue's table; speckle rows are None for a set without tissue windows."""
@@ -661,6 +678,8 @@ class _Accumulator:
         per image that shows a vessel region."""
         self.cut = 0
         """Vessel regions that touch the imaged area's side or bottom."""
+        self.ellipse_fits: list[float] = []
+        """Each uncut vessel region's overlap with its moment ellipse (`ellipse_fit`)."""
         self.contrasts: list[VesselContrast] = []
         """Lumen and wall contrasts of each vessel region."""
         self.line_angles = np.zeros(round(90 / ANGLE_BIN_DEGREES), np.int64)
@@ -698,7 +717,9 @@ class _Accumulator:
         self.contrasts.extend(
             vessel_contrasts(image, vessel, settings.min_vessel_area, settings.wall_band, regions)
         )
-        self.cut += sum(is_cut(vessel.shape, region) for region in regions)
+        uncut = [region for region in regions if not is_cut(vessel.shape, region)]
+        self.cut += len(regions) - len(uncut)
+        self.ellipse_fits.extend(map(ellipse_fit, uncut))
         if regions:
             self.centroid_offsets.append(centroid_offset(vessel, regions))
 
@@ -764,6 +785,7 @@ class _Accumulator:
             off_side_share=float((offsets >= OFF_SIDE_OFFSET).mean()),
             cut_share=self.cut / len(aspects),
             aspects=tuple(float(a) for a in aspects),
+            ellipse_fit_quantiles=_present_quantiles(self.ellipse_fits),
             wall_lateral_quantiles=_present_quantiles([c.beside for c in self.contrasts]),
             wall_axial_quantiles=_present_quantiles([c.above_below for c in self.contrasts]),
             lumen_quantiles=_present_quantiles([c.lumen for c in self.contrasts]),
@@ -878,6 +900,26 @@ def _region_shape(vessel: np.ndarray, region: Region) -> tuple[float, float, flo
     smallest, largest = np.linalg.eigvalsh(covariance)
     centre_row = box[0].start + rows.mean() + 0.5  # pixel centres lie at row + 0.5
     return math.sqrt(largest / smallest), rows.size / vessel.size, centre_row / vessel.shape[0]
+
+
+def ellipse_fit(region: Region) -> float:
+    """IoU of `region` with the uniform ellipse of its centroid and second moments (each pixel
+    a unit square, as for the aspect: a uniform ellipse's second moment along an axis is a
+    quarter of its semi-axis squared), counted over pixel centres: 1 for an exact ellipse up
+    to its pixels' edges, less the more its outline bends in and out of one."""
+    _, rows, cols = region
+    points = np.stack([rows, cols]).astype(np.float64)
+    centre = points.mean(axis=1)
+    covariance = np.cov(points, bias=True) + PIXEL_SECOND_MOMENT * np.eye(2)
+    reach = 2.0 * math.sqrt(float(np.linalg.eigvalsh(covariance)[-1]))  # its semi-major axis
+    low = np.floor(np.minimum(points.min(axis=1), centre - reach)).astype(int)
+    high = np.ceil(np.maximum(points.max(axis=1), centre + reach)).astype(int) + 1
+    grid_rows, grid_cols = np.mgrid[low[0] : high[0], low[1] : high[1]]
+    offsets = np.stack([grid_rows - centre[0], grid_cols - centre[1]], axis=-1)
+    inside = np.einsum("...i,ij,...j->...", offsets, np.linalg.inv(covariance), offsets) <= 4.0
+    member = np.zeros(inside.shape, bool)
+    member[rows - low[0], cols - low[1]] = True
+    return float((inside & member).sum() / (inside | member).sum())
 
 
 class VesselContrast(NamedTuple):
@@ -1251,7 +1293,8 @@ def _report_lines(comparison: RealismComparison, sources: Mapping[str, object]) 
         "normal to the beam (a line across the beam: 0 degrees). Vessel shapes: each "
         f"connected vessel region of at least {settings.min_vessel_area:.2%} of its image's "
         "imaged area; aspect = sqrt of its second moments' eigenvalue ratio (length over "
-        "width), area and centre depth as shares of the imaged area and height; placement: "
+        "width), area and centre depth as shares of the imaged area and height; outline: "
+        "each uncut region's IoU with the uniform ellipse of its second moments; placement: "
         "each image's vessel centroid (mean column of its regions' pixels) off the middle, as "
         "a share of the width; cut: regions touching the imaged area's side or bottom. Per "
         "vessel: "

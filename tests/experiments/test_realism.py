@@ -15,6 +15,7 @@ from scipy.spatial import cKDTree
 
 from resus.errors import ResusError
 from resus.experiments.realism import (
+    ellipse_fit,
     MEDIAN,
     QUANTILES,
     RAYLEIGH_LOG_STD_DB,
@@ -274,6 +275,26 @@ def test_a_turned_ellipse_has_its_axis_ratio_area_and_depth() -> None:
     assert aspect == pytest.approx(3.0, rel=0.01)
     assert area == pytest.approx(math.pi * 45 * 15 / mask.size, rel=0.01)
     assert depth == pytest.approx(80.0 / 200, abs=1e-3)
+
+
+def whole_region(mask: np.ndarray) -> tuple[tuple[slice, slice], np.ndarray, np.ndarray]:
+    """`mask` as one region (its box the whole image)."""
+    return (slice(0, mask.shape[0]), slice(0, mask.shape[1])), *np.nonzero(mask)
+
+
+def test_an_ellipse_fits_its_moment_ellipse_and_a_square_by_its_overlap_with_a_disc() -> None:
+    """A turned ellipse overlaps its moment ellipse up to its pixels' edges. A square of side
+    s has second moment s^2 / 12 along either axis, so its moment ellipse is the disc of
+    radius s / sqrt(3), which pokes out of it in four caps of r^2 acos(d / r) - d sqrt(r^2 -
+    d^2) each (r = s / sqrt(3), d = s / 2): IoU = (disc - caps) / (square + caps) = 0.827."""
+    turned = ellipse((200, 240), (80.0, 120.0), (45.0, 15.0), math.radians(30))
+    assert ellipse_fit(whole_region(turned)) > 0.98
+    square = np.zeros((100, 100), bool)
+    square[20:80, 20:80] = True
+    r, d = 1.0 / math.sqrt(3.0), 0.5
+    caps = 4.0 * (r * r * math.acos(d / r) - d * math.sqrt(r * r - d * d))
+    expected = (math.pi * r * r - caps) / (1.0 + caps)
+    assert ellipse_fit(whole_region(square)) == pytest.approx(expected, abs=0.005)
 
 
 def test_vessel_shapes_count_regions_above_the_least_area_over_the_imaged_area() -> None:
