@@ -11,7 +11,10 @@ Four small laws, each a textbook model with its parameters in `TissueMechanics`:
   shrinks linearly with the excess pressure, down to `collapsed_fraction` of its radius at
   `vein_collapse_pressure_mmhg` above venous pressure, more for a thick wall (its bending
   stiffness, the tube law's (h / R)^3); its perimeter is kept, so it widens as it flattens
-  (`vein_semi_axes`).
+  (`vein_semi_axes`). Nor is its edge an exact circle or ellipse: at that low transmural
+  pressure its thin wall takes the shape its neighbours press into it, drawn per vein as
+  harmonics 2-4 of the angle round its axis that bend the edge in and out
+  (`vein_shape_harmonics`).
 - **Arterial pulsation.** Arteries stay round (arterial pressure, about 90 mmHg, far above what
   a probe exerts) and their diameter follows a systolic waveform at the heart rate: a fast
   rise over the first 15 % of the cycle, then an exponential run-off (`cardiac_waveform`).
@@ -36,6 +39,12 @@ SYSTOLE_FRACTION = 0.15
 """Share of the cardiac cycle taken by the systolic rise of the arterial diameter."""
 RUNOFF_TIME_FRACTION = 0.25
 """Time constant of the diastolic run-off, as a share of the cycle."""
+VEIN_HARMONICS = (2, 3, 4)
+"""The harmonics of the angle round its axis that shape a vein's cross-section."""
+MAX_VEIN_IRREGULARITY = 0.25
+"""Above this the harmonics could together cut a cross-section's radius to nothing."""
+VEIN_SHAPE_STREAM = 0x5EA9
+"""Mixed into the seed of each vein's harmonics (`vein_shape_harmonics`)."""
 MAX_COMPRESSION_STRAIN = 0.8
 """Indentation is capped at this fraction of `compression_length`, so the map stays one to one."""
 
@@ -59,6 +68,11 @@ class TissueMechanics:
     probe, the common femoral vein (h / R under 0.1) under 1 mmHg. 0: walls without stiffness."""
     collapsed_fraction: float = 0.08
     """Minor semi-axis of a fully collapsed vein, as a fraction of its round radius."""
+    vein_irregularity: float = 0.0
+    """Largest amplitude, over the round radius, of each of harmonics 2-4 of a vein's
+    cross-section (`vein_shape_harmonics`). At its low transmural pressure a vein's thin wall
+    takes the shape its neighbours press into it, so a real vein's cross-section is a rounded
+    polygon more than an ellipse; an artery's pressure keeps it round. 0: elliptical veins."""
     heart_rate_bpm: float = 72.0
     arterial_pulsation: float = 0.07
     """Systolic increase of the arterial diameter over its diastolic value (5-10 %)."""
@@ -88,6 +102,11 @@ class TissueMechanics:
         if not 0 < self.collapsed_fraction < 1:
             raise ValueError(
                 f"mechanics.collapsed_fraction must be in (0, 1), got {self.collapsed_fraction}"
+            )
+        if not 0 <= self.vein_irregularity <= MAX_VEIN_IRREGULARITY:
+            raise ValueError(
+                f"mechanics.vein_irregularity must be in [0, {MAX_VEIN_IRREGULARITY}], got "
+                f"{self.vein_irregularity}"
             )
         if not 0 <= self.arterial_pulsation < 0.5:
             raise ValueError(
@@ -129,6 +148,23 @@ class TissueMechanics:
         collapse = self.vein_collapse_pressure_mmhg + self.vein_wall_stiffness_mmhg * wall_ratio**3
         minor = max(self.collapsed_fraction, 1.0 - excess / collapse)
         return minor, perimeter_keeping_major(minor)
+
+
+def vein_shape_harmonics(
+    irregularity: float, seed: int, subject: int | None, vessel: int
+) -> np.ndarray:
+    """(len(VEIN_HARMONICS), 2) amplitude and phase (rad) of each harmonic of vessel
+    `vessel`'s cross-section: amplitudes uniform in [0, irregularity], phases uniform, from a
+    generator seeded by (seed, subject, vessel) alone (subject None: the nominal phantom), so
+    that every subject's veins keep their shape from frame to frame and drawing them moves no
+    other draw. The cross-section's edge lies at (1 + sum_k a_k cos(k (theta - phi_k))) times
+    the ellipse's radius in direction theta, measured round the vessel's axis from the
+    phantom's up (`sim.ultrasound.deformation`)."""
+    nominal_or_subject = 0 if subject is None else subject + 1
+    rng = np.random.default_rng([seed, nominal_or_subject, vessel, VEIN_SHAPE_STREAM])
+    amplitudes = rng.uniform(0.0, irregularity, len(VEIN_HARMONICS))
+    phases = rng.uniform(0.0, 2.0 * math.pi, len(VEIN_HARMONICS))
+    return np.stack([amplitudes, phases], axis=1)
 
 
 def cardiac_waveform(phase: float) -> float:

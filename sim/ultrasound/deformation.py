@@ -8,13 +8,16 @@ the deformed geometry. The map is the inverse of two forward deformations, appli
 1. **Each vessel's cross-section** (`sim.phantom.mechanics` gives the sizes). Near the image,
    a vessel is taken as straight: the line through the centreline point nearest the image,
    along its tangent. Across that line, a point at distance rho in direction theta of the
-   deformed cross-section came from the same direction; inside the deformed ellipse (semi-axes
-   `minor` along the beam, `major` across it, in units of the round radius r), from `r * nu`,
-   with nu the point's elliptical radius; outside, from distances stretched linearly so that
-   the map is the identity from `OUTER_RADII * r` on (or short of a neighbouring vessel, so
-   one vessel's change never bends another), and beyond the vessel's ends (where the vessel
-   it joins takes over). The vessel's label region is therefore exactly the
-   ellipse in any plane across the line, and the map is one to one and continuous there.
+   deformed cross-section came from the same direction; inside the deformed edge (an ellipse
+   of semi-axes `minor` along the beam and `major` across it, in units of the round radius r,
+   bent in and out by a vein's harmonics), from `r * nu`, with nu the point's distance over
+   the edge's in its direction; outside, from distances stretched linearly so that the map is
+   the identity from `OUTER_RADII * r` on (or short of a neighbouring vessel, so one vessel's
+   change never bends another), and beyond the vessel's ends (where the vessel it joins takes
+   over). A vein's harmonics (`mechanics.vein_shape_harmonics`) measure their angles round the
+   axis from the phantom's up, so they hold their place in the body whatever the probe's
+   tilt. The vessel's label region is therefore exactly that shape in any plane across the
+   line, and the map is one to one and continuous there.
 2. **Bulk compression** under the face: the skin follows the face across its width, each
    image column indented by the face's penetration into the undeformed body at its element,
    and the tissue below shifts along the beam by an amount that decays with depth
@@ -44,10 +47,12 @@ import numpy as np
 from sim.phantom import Phantom
 from sim.phantom.mechanics import (
     PASCAL_PER_MMHG,
+    VEIN_HARMONICS,
     TissueMechanics,
     bulk_row_shifts,
     face_stress_fraction,
     tissue_shift,
+    vein_shape_harmonics,
 )
 from sim.phantom.spec import ARTERY
 from sim.ultrasound.probe import LinearProbe
@@ -63,11 +68,13 @@ RING_MARGIN = 3.0e-4
 """Tissue left between a vessel's ring and a neighbour (m)."""
 RING_ROOM = 1.15
 """A ring's outer radius is at least this many times the vessel's largest semi-axis."""
-MAP_WIDTH = 19
+MAP_WIDTH = 26
 """A cross-section map row: centre c (3), axis t (3), beam direction b (3), n = t x b (3),
 round radius, deformed semi-axes along b and along n, outer radius, the stretch of the axis
 the vessel spans, from c, and how far the bulk compression moved the centre along the beam
-(all metres)."""
+(all metres); then the edge's bend, (cos, sin) coefficients of harmonics 2, 3 and 4 of the
+angle from b towards n (relative to the ellipse's radius), and the sum of their amplitudes (0:
+an unbent edge, which the kernels skip)."""
 
 
 @dataclass(frozen=True)
@@ -129,6 +136,16 @@ class ProbeDeformation:
         self._names = [vessel.name for vessel in phantom.spec.vessels]
         self._arteries = [vessel.label == ARTERY for vessel in phantom.spec.vessels]
         self._walls = [vessel.wall_thickness for vessel in phantom.spec.vessels]
+        self._harmonics = [
+            vein_shape_harmonics(
+                0.0 if artery else mechanics.vein_irregularity,
+                phantom.spec.seed,
+                phantom.spec.subject,
+                index,
+            )
+            for index, artery in enumerate(self._arteries)
+        ]
+        """Per vessel, its edge's harmonics (amplitude, phase); none bend an artery's."""
         centrelines, radii = phantom.centrelines(), phantom.centreline_radii()
         self._nodes = np.concatenate([centrelines[name] for name in self._names])
         self._radii = np.concatenate([radii[name] for name in self._names])
@@ -176,8 +193,8 @@ class ProbeDeformation:
         distance = np.sqrt(local[:, 1] ** 2 + outside_x**2 + outside_z**2)
         crossings = [
             (index, crossing)
-            for index, part in enumerate(self._slices)
-            if (crossing := self._crossing(part, local, distance)) is not None
+            for index in range(len(self._slices))
+            if (crossing := self._crossing(index, local, distance)) is not None
         ]
         if not crossings:
             return FrameDeformation(row_shift, columns, np.zeros((0, MAP_WIDTH)), (), indentation)
@@ -229,6 +246,7 @@ class ProbeDeformation:
                     outer,
                     *crossing.span,
                     centre_shift,
+                    *_edge_bend(self._harmonics[index], axis, across, other),
                 ]
             )
             shapes.append(
@@ -239,10 +257,11 @@ class ProbeDeformation:
         table = np.array(maps, dtype=np.float64).reshape(-1, MAP_WIDTH)
         return FrameDeformation(row_shift, columns, table, tuple(shapes), indentation)
 
-    def _crossing(self, part: slice, local: np.ndarray, distance: np.ndarray) -> _Crossing | None:
-        """Where the vessel whose nodes are `part` passes nearest the image, given every
-        node's probe-frame position and distance from the image; None when it stays farther
-        from the image than its outer radius."""
+    def _crossing(self, index: int, local: np.ndarray, distance: np.ndarray) -> _Crossing | None:
+        """Where vessel `index` passes nearest the image, given every node's probe-frame
+        position and distance from the image; None when it stays farther from the image than
+        its outer radius."""
+        part = self._slices[index]
         nodes, radii = self._nodes[part], self._radii[part]
         local, distance = local[part], distance[part]
         k = int(np.argmin(distance))
@@ -261,7 +280,26 @@ class ProbeDeformation:
         ends = (nodes[[0, -1]] - centre) @ tangent
         cap = float(radii.max())
         span = (float(ends.min()) - cap, float(ends.max()) + cap)
-        return _Crossing(centre, tangent, radius, span)
+        bulge = 1.0 + float(self._harmonics[index][:, 0].sum())
+        return _Crossing(centre, tangent, radius, span, bulge)
+
+
+def _edge_bend(
+    harmonics: np.ndarray, axis: np.ndarray, across: np.ndarray, other: np.ndarray
+) -> list[float]:
+    """A map row's (cos, sin) coefficients of each harmonic of the angle from `across`
+    towards `other` (unit vectors across `axis`), then their amplitudes' sum, for an edge
+    bend whose phases are measured from the phantom's up projected across the axis (its x for
+    a vessel along z): the bend turns with the vessel, not with the probe."""
+    up = np.array([0.0, 0.0, 1.0]) - axis[2] * axis
+    if up @ up < 1e-12:
+        up = np.array([1.0, 0.0, 0.0]) - axis[0] * axis
+    offset = math.atan2(float(up @ other), float(up @ across))  # up's angle in the map's frame
+    coefficients = []
+    for order, (amplitude, phase) in zip(VEIN_HARMONICS, harmonics, strict=True):
+        turned = order * (offset + phase)
+        coefficients += [amplitude * math.cos(turned), amplitude * math.sin(turned)]
+    return [*coefficients, float(harmonics[:, 0].sum())]
 
 
 def _fitted_ring(
@@ -272,7 +310,7 @@ def _fitted_ring(
     neighbour crossing the image (taken at `NEIGHBOUR_REACH` of its radius, room for its
     pulse), so that one vessel's change never bends another (vessels that overlap, a
     junction's, are one lumen and no neighbours); a vein hemmed in that tightly widens only
-    as far as its ring leaves room for."""
+    as far as its ring leaves room for. Radii count with each vessel's `bulge`."""
     radius, outer = crossing.radius, OUTER_RADII * crossing.radius
     for other in neighbours:
         offset = other.centre - crossing.centre
@@ -280,10 +318,11 @@ def _fitted_ring(
         distance = math.sqrt(across @ across)
         if distance < radius + other.radius:  # overlapping: one lumen (a junction), not a neighbour
             continue
-        outer = min(outer, distance - NEIGHBOUR_REACH * other.radius - RING_MARGIN)
-    room = outer / (RING_ROOM * radius)
+        reach = NEIGHBOUR_REACH * other.radius * other.bulge
+        outer = min(outer, distance - reach - RING_MARGIN)
+    room = outer / (RING_ROOM * radius * crossing.bulge)
     major = max(minor, min(major, room))
-    return max(outer, RING_ROOM * radius * max(minor, major, 1.0)), major
+    return max(outer, RING_ROOM * radius * crossing.bulge * max(minor, major, 1.0)), major
 
 
 @dataclass(frozen=True)
@@ -295,6 +334,8 @@ class _Crossing:
     axis: np.ndarray
     radius: float
     span: tuple[float, float]
+    bulge: float
+    """The most its edge bends out, over the ellipse's radius (1 + the harmonics' amplitudes)."""
 
 
 REACH_PAD = 1.0e-6
@@ -451,8 +492,10 @@ def _section_coordinates(
 ) -> tuple[bool, float, float, float, float, float]:
     """Where the offset (x, y, z) from map `row`'s centre lies across its vessel: whether
     the map reaches it (within the outer radius and the vessel's stretch of axis), the offset
-    across the axis, its distance from the axis and its elliptical radius in the deformed
-    cross-section (1 on the ellipse)."""
+    across the axis, its distance from the axis and its radius in the deformed cross-section
+    (1 on the edge: the ellipse's radius in its direction, bent by the harmonics). The
+    harmonics' cosines and sines come from the direction's by the multiple-angle formulas:
+    no trigonometric call per point."""
     along = x * row[3] + y * row[4] + z * row[5]
     outer = row[15]
     if x * x + y * y + z * z - along * along >= outer * outer:
@@ -464,6 +507,13 @@ def _section_coordinates(
     xn = ax * row[9] + ay * row[10] + az * row[11]
     rho = np.sqrt(xb * xb + xn * xn)
     nu = np.sqrt((xb / row[13]) ** 2 + (xn / row[14]) ** 2)
+    if rho > 0.0 and row[25] > 0.0:  # a bent edge (a vein with harmonics)
+        c1, s1 = xb / rho, xn / rho
+        c2, s2 = c1 * c1 - s1 * s1, 2.0 * c1 * s1
+        c3, s3 = c2 * c1 - s2 * s1, s2 * c1 + c2 * s1
+        c4, s4 = c2 * c2 - s2 * s2, 2.0 * c2 * s2
+        bend = row[19] * c2 + row[20] * s2 + row[21] * c3 + row[22] * s3
+        nu /= 1.0 + bend + row[23] * c4 + row[24] * s4
     return True, ax, ay, az, rho, nu
 
 

@@ -27,6 +27,7 @@ from sim.phantom.mechanics import (
     face_stress_fraction,
     perimeter_keeping_major,
     tissue_shift,
+    vein_shape_harmonics,
 )
 from sim.ultrasound.deformation import TissueLoad, column_row_shifts
 from sim.ultrasound.probe import LinearProbe
@@ -179,6 +180,7 @@ def test_column_row_shifts_interpolate_the_exact_inversion_within_a_micrometre()
         ("arterial_pulsation", 0.6, "mechanics.arterial_pulsation must be in"),
         ("cardiac_phase", 1.0, "mechanics.cardiac_phase must be in"),
         ("vein_wall_stiffness_mmhg", -1.0, "mechanics.vein_wall_stiffness_mmhg must be >= 0"),
+        ("vein_irregularity", 0.3, r"mechanics.vein_irregularity must be in \[0, 0.25\]"),
     ],
 )
 def test_mechanics_refuse_bad_values_by_name(field, value, message):
@@ -195,6 +197,17 @@ def test_subjects_draw_mechanics_without_moving_their_anatomy():
         assert 5.0 <= deformable.mechanics.venous_pressure_mmhg <= 15.0
         assert 60.0 <= deformable.mechanics.heart_rate_bpm <= 100.0
     assert make_subject(spec, 0).mechanics != make_subject(spec, 1).mechanics
+
+
+def test_vein_shapes_are_drawn_per_subject_and_vessel_within_the_irregularity():
+    draws = [vein_shape_harmonics(0.1, 7, subject, 2) for subject in (None, 0, 1)]
+    assert all(d.shape == (3, 2) for d in draws)
+    assert all(((d[:, 0] >= 0.0) & (d[:, 0] <= 0.1)).all() for d in draws)
+    assert all(((d[:, 1] >= 0.0) & (d[:, 1] < 2 * math.pi)).all() for d in draws)
+    assert not np.array_equal(draws[0], draws[1]) and not np.array_equal(draws[1], draws[2])
+    assert not np.array_equal(draws[1], vein_shape_harmonics(0.1, 7, 0, 3))
+    assert np.array_equal(draws[1], vein_shape_harmonics(0.1, 7, 0, 2))
+    assert not vein_shape_harmonics(0.0, 7, 0, 2)[:, 0].any()
 
 
 def test_the_saphenous_vein_has_its_own_thicker_wall():
@@ -240,6 +253,35 @@ def test_labels_are_the_deformed_geometry_evaluated_exactly(simulator, force, in
     clear = np.abs(ellipse - 1.0) > 1e-6
     assert np.array_equal((labels == 2)[clear], (ellipse <= 1.0)[clear])
     assert (labels == 2).sum() > 100
+
+
+def test_an_irregular_veins_labels_are_its_bent_edge_exactly(gel_block_spec):
+    """With `vein_irregularity`, the vein's label is the law's ellipse with its edge bent by
+    its drawn harmonics, the angle measured round its axis (+y) from the phantom's up (+z):
+    the point at angle a lies at x = sin a, z = cos a (computed here from that convention),
+    and the artery stays round."""
+    bent = dataclasses.replace(MECHANICS, vein_irregularity=0.2)
+    spec = straight_vessels_spec(gel_block_spec, bent)
+    irregular = UltrasoundSimulator(Phantom(spec), PROBE)
+    _, labels = irregular.render(pressed_pose(irregular.phantom, 0.0), TissueLoad(2.0, 0.0))
+    lateral, depth = pixel_centres()
+    minor, major = expected_vein_semi_axes(2.0, 0.0, bent)
+    dx, dz = lateral - VEIN_X, -(depth - DEPTH)  # phantom x and z from the vein's centre
+    angle = np.arctan2(dx, dz)
+    edge = 1.0 + sum(
+        amplitude * np.cos(order * (angle - phase))
+        for order, (amplitude, phase) in zip(
+            (2, 3, 4), vein_shape_harmonics(0.2, spec.seed, spec.subject, 0), strict=True
+        )
+    )
+    radius = np.hypot(dz / (minor * VEIN_RADIUS), dx / (major * VEIN_RADIUS)) / edge
+    clear = np.abs(radius - 1.0) > 1e-6
+    assert np.array_equal((labels == 2)[clear], (radius <= 1.0)[clear])
+    ellipse = np.hypot(dz / (minor * VEIN_RADIUS), dx / (major * VEIN_RADIUS)) <= 1.0
+    assert ((labels == 2) != ellipse).sum() > 0.05 * ellipse.sum()  # the bend shows
+    circle = np.hypot(lateral - ARTERY_X, depth - DEPTH) / ARTERY_RADIUS
+    clear = np.abs(circle - 1.0) > 1e-6
+    assert np.array_equal((labels == 1)[clear], (circle <= 1.0)[clear])
 
 
 def test_pressed_arteries_stay_round(simulator):
@@ -313,8 +355,9 @@ def test_without_a_load_or_mechanics_every_image_is_the_rigid_worlds(simulator, 
 
 
 def test_an_unloaded_deformable_phantom_images_as_the_rigid_one(simulator, gel_block_spec):
-    """No force, no indentation, no pulsation: the deformed path (speckle read at each pixel's
-    own tissue point) sees what the rigid one does, up to float32 rounding of the lattice."""
+    """No force, no indentation, no pulsation, no bent vein edges: the deformed path
+    (speckle read at each pixel's own tissue point) sees what the rigid one does, up to
+    float32 rounding of the lattice."""
     still = dataclasses.replace(MECHANICS, arterial_pulsation=0.0)
     unloaded = UltrasoundSimulator(Phantom(straight_vessels_spec(gel_block_spec, still)), PROBE)
     pose = pressed_pose(unloaded.phantom, 0.0)
