@@ -15,13 +15,13 @@ from scipy.spatial import cKDTree
 
 from resus.errors import ResusError
 from resus.experiments.realism import (
-    ellipse_fit,
     MEDIAN,
     QUANTILES,
     RAYLEIGH_LOG_STD_DB,
     ImageSet,
     RealismSettings,
     compare,
+    ellipse_fit,
     full_width_half_maximum,
     imaged_region,
     measure,
