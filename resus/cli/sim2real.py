@@ -48,6 +48,13 @@ def register(group: typer.Typer) -> None:
             int | None,
             typer.Option(min=1, help="Random splits the curve is averaged over (the preset's)."),
         ] = None,
+        rehearsal: Annotated[
+            int | None,
+            typer.Option(
+                help="Simulated frames in every epoch of a fine-tuning from simulation, 0 for "
+                "none (the preset's when not given)."
+            ),
+        ] = None,
         data: Annotated[
             Path | None, typer.Option(help="Scratch folder for the sweeps (default: OUT/data).")
         ] = None,
@@ -73,6 +80,9 @@ def register(group: typer.Typer) -> None:
             settings = dataclasses.replace(settings, ensemble=ensemble)
         if splits is not None:
             settings = dataclasses.replace(settings, splits=splits)
+        if rehearsal is not None:
+            with flag_error("--rehearsal"):
+                settings = dataclasses.replace(settings, rehearsal_images=rehearsal)
         if label_counts is not None:
             with flag_error("--label-counts"):
                 counts = parse_numbers(label_counts, "--label-counts", kind=int)

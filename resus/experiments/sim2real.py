@@ -24,9 +24,12 @@ when it finishes, so a rerun resumes and the figures do not depend on the engine
 Every run of a fine-tuning sees the same number of images (`fine_tune_epochs` x
 `fine_tune_epoch_images`: the k images repeated, each repeat augmented afresh), so a small k is
 not also a short training, and from either start the same, long enough for a network from
-random weights to learn (see `Sim2RealSettings.fine_tune_epochs`). With k labels there are none
-to spare for validation: the best epoch is chosen on the k training images themselves, and the
-test images are never looked at before scoring.
+random weights to learn (see `Sim2RealSettings.fine_tune_epochs`). A fine-tuning from
+simulation spends part of that budget on simulated frames (`rehearsal_images` a epoch, in
+fewer epochs): rehearsal, so that a few real labels refine what simulation taught instead of
+overwriting it. With k labels there are none to spare for validation: the best epoch is
+chosen on the k training images themselves, and the test images are never looked at before
+scoring.
 """
 
 from __future__ import annotations
@@ -71,7 +74,11 @@ SIM_ONLY_FOLDER, CHECKPOINT = "sim_only", "checkpoint.pt"
 CURVE_SHAPE_FIELDS = ("label_counts", "splits", "minimum_test_images")
 """`Sim2RealSettings` fields that choose which fine-tunings the curve runs (its k, its splits
 and their test sets, which each fine-tuning's key names itself), not what any one computes."""
-CURVE_FIELDS = (*CURVE_SHAPE_FIELDS, "fine_tune_epochs", "fine_tune_epoch_images")
+REHEARSAL_STREAM = 0x4EAE
+"""Mixed into a fine-tuning's seed to draw its rehearsal frames (`rehearsal_frames`)."""
+CURVE_FIELDS = (
+    *CURVE_SHAPE_FIELDS, "fine_tune_epochs", "fine_tune_epoch_images", "rehearsal_images"
+)  # fmt: skip
 """`Sim2RealSettings` fields that only the few-label curve reads."""
 
 
@@ -144,6 +151,14 @@ class Sim2RealSettings:
     20 / 40 / 80 epochs (6 was the default until 2026-12-04: it compared a trained pretrained
     network with an untrained baseline), and from the simulation-only weights 0.352 after 6
     and 0.479 after 80."""
+    rehearsal_images: int = 64
+    """Simulated frames in every epoch of a fine-tuning from simulation (rehearsal), drawn
+    once per fine-tuning (seeded) from the simulation-only model's own training sweeps, in
+    the real masks' classes (one vessel class where they do not tell artery from vein); it
+    runs fewer epochs so that both starts see the same number of images
+    (`fine_tuning_epochs`). From scratch gets none: it is the curve's start without
+    simulation. 0: none. Without it five real labels wrecked the start on one split of
+    usgra-seg (0.467 -> 0.086; with 64: 0.416; README Sim-to-real)."""
     minimum_test_images: int = 20
     """The least the real set must leave for testing after the largest k."""
     training_cpus: int = 2
@@ -175,6 +190,8 @@ class Sim2RealSettings:
         for name in counted:
             if getattr(self, name) < 1:
                 raise ResusError(f"{where}.{name} must be at least 1, got {getattr(self, name)}")
+        if self.rehearsal_images < 0:
+            raise ResusError(f"{where}.rehearsal_images must be >= 0, got {self.rehearsal_images}")
         if not (self.sweep_offset >= 0 and 0 <= self.sweep_tilt_deg < 45):
             raise ResusError(
                 f"{where}.sweep_offset must be >= 0 and sweep_tilt_deg in [0, 45), got "
@@ -214,6 +231,15 @@ class Sim2RealSettings:
             vertical_flip_p=self.vertical_flip_p,
         )
         return dataclasses.replace(preset, augmentation=augmentation)
+
+    def fine_tuning_epochs(self, rehearsal: bool) -> int:
+        """Epochs of a fine-tuning: `fine_tune_epochs`, or with rehearsal as many as keep its
+        images (`fine_tune_epoch_images` real ones and `rehearsal_images` simulated a epoch)
+        to the same total, at least one."""
+        if not rehearsal or not self.rehearsal_images:
+            return self.fine_tune_epochs
+        images = self.fine_tune_epochs * self.fine_tune_epoch_images
+        return max(1, round(images / (self.fine_tune_epoch_images + self.rehearsal_images)))
 
     @property
     def pool_size(self) -> int:
@@ -380,17 +406,18 @@ def fine_tune(
     *,
     seed: int,
     device: torch.device,
+    rehearsal: Sequence[LabelledImages] = (),
 ) -> TrainedModel:
     """A U-Net trained on the labelled real images `real`, starting from `initial`'s weights
-    (None: random ones), for the settings' fixed budget of images."""
+    (None: random ones), for the settings' fixed budget of images; `rehearsal` (simulated
+    frames, `rehearsal_frames`) joins every epoch."""
     from resus.segmentation.train import train_model
 
     sets = real.labelled_sets(REAL_SUBJECT)
-    budget = dataclasses.replace(
-        preset, max_epochs=settings.fine_tune_epochs, patience=settings.fine_tune_epochs
-    )
+    epochs = settings.fine_tuning_epochs(bool(rehearsal))
+    budget = dataclasses.replace(preset, max_epochs=epochs, patience=epochs)
     result = train_model(
-        repeated_to(sets, settings.fine_tune_epoch_images),
+        repeated_to(sets, settings.fine_tune_epoch_images) + list(rehearsal),
         sets,  # no labels to spare: the epoch is chosen on the training images (module doc)
         budget,
         seed=seed,
@@ -403,9 +430,44 @@ def fine_tune(
     return TrainedModel(result.model, result.config)
 
 
+def rehearsal_frames(
+    sweeps: Sequence[Path], count: int, seed: int, one_vessel_class: bool
+) -> list[LabelledImages]:
+    """`count` labelled frames drawn without replacement (seeded) from all of `sweeps`'
+    frames, one set per frame size; with `one_vessel_class` every vessel is label 1, as in
+    masks that do not tell artery from vein."""
+    from resus.segmentation.loaders import load_sweep_frames
+
+    sets = load_sweep_frames(sweeps)
+    frames = [(s, i) for s, part in enumerate(sets) for i in range(len(part))]
+    if count > len(frames):
+        raise ResusError(
+            f"Sim2RealSettings.rehearsal_images is {count}, but the sweeps hold {len(frames)} "
+            "frames"
+        )
+    rng = np.random.default_rng([seed, REHEARSAL_STREAM])
+    by_shape: dict[tuple[int, ...], list[tuple[int, int]]] = {}
+    for j in sorted(rng.choice(len(frames), count, replace=False)):
+        s, i = frames[j]
+        by_shape.setdefault(sets[s].images.shape[1:], []).append((s, i))
+    rehearsal = []
+    for picked in by_shape.values():
+        labels = np.stack([sets[s].labels[i] for s, i in picked])
+        rehearsal.append(
+            LabelledImages(
+                np.stack([sets[s].images[i] for s, i in picked]),
+                (labels > 0).astype(np.uint8) if one_vessel_class else labels,
+                "simulated",
+                "rehearsal",
+            )
+        )
+    return rehearsal
+
+
 def few_label_curve(
     real: FolderImages,
     sim_only: TrainedModel,
+    sweeps: Sequence[Path],
     settings: Sim2RealSettings,
     out: Path,
     *,
@@ -420,7 +482,8 @@ def few_label_curve(
     """Every (split, initialisation, k) fine-tuning, a unit on `executor` (its folder under
     `out/few_label/`), scored; with `example_count` of the first split's test images
     (`example_indices`) and the labels each model gave them, for the figure. k = 0 from
-    simulation is `sim_only` itself (a saved model: the units load it), scored here."""
+    simulation is `sim_only` itself (a saved model: the units load it), scored here;
+    `sweeps` are its training sweeps, which the fine-tunings from it rehearse."""
     from resus.execution import run_pending
     from resus.experiments.sim2real_units import (
         FEW_LABEL_FOLDER,
@@ -458,6 +521,7 @@ def few_label_curve(
             seed,
             device,
             sim_only.path,
+            tuple(sweeps),
             shown if split.index == 0 else (),
             out / FEW_LABEL_FOLDER / f"{initialisation}_k{k}_split{split.index}",
         )
@@ -732,6 +796,7 @@ def run_sim2real(
     splits, points, shown, examples = few_label_curve(
         real,
         members[0],
+        units[0].sweeps,
         settings,
         out,
         seed=seed,

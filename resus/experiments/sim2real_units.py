@@ -24,6 +24,7 @@ from resus.experiments.sim2real import (
     RealSplit,
     Sim2RealSettings,
     fine_tune,
+    rehearsal_frames,
     vessel_scores,
 )
 from resus.segmentation.folders import FolderImages
@@ -117,20 +118,26 @@ class FineTuneUnit:
     device: str
     sim_only: Path
     """The simulation-only checkpoint (read when starting from simulation)."""
+    sweeps: tuple[Path, ...]
+    """Its training sweeps, whose frames a fine-tuning from it rehearses (`rehearsal_frames`)."""
     shown: tuple[int, ...]
     """Indices into the split's test set whose predicted labels are kept for the figure."""
     folder: Path
 
     def key(self) -> dict:
-        """Everything the result depends on: the simulation-only model is fixed by the
-        settings, seed and device, which are here."""
+        """Everything the result depends on: the simulation-only model and its sweeps are
+        fixed by the settings, seed and device, which are here; from scratch, nothing is
+        rehearsed."""
+        settings = self.settings.fine_tuning_key()
+        if self.initialisation != FROM_SIMULATION:
+            del settings["rehearsal_images"]
         return {
             "unit": "fine-tuning",
             "real": self.real_digest,
             "split": {"pool": list(self.split.pool), "test": list(self.split.test)},
             "initialisation": self.initialisation,
             "labels": self.labels,
-            "settings": self.settings.fine_tuning_key(),
+            "settings": settings,
             "seed": self.seed,
             "training_seed": self.training_seed,
             "device": self.device,
@@ -167,7 +174,18 @@ def fine_tune_unit(unit: FineTuneUnit) -> dict:
     real = read_folders(unit.image_folder, unit.mask_folder)
     if images_digest(real) != unit.real_digest:
         raise ResusError("the real images changed while the experiment ran", unit.image_folder)
-    initial = load_model(unit.sim_only, device) if unit.initialisation == FROM_SIMULATION else None
+    from_simulation = unit.initialisation == FROM_SIMULATION
+    initial = load_model(unit.sim_only, device) if from_simulation else None
+    rehearsal = (
+        rehearsal_frames(
+            unit.sweeps,
+            unit.settings.rehearsal_images,
+            unit.training_seed,
+            one_vessel_class=not real.separates_classes,
+        )
+        if from_simulation and unit.settings.rehearsal_images
+        else []
+    )
     model = fine_tune(
         real.subset(unit.split.pool[: unit.labels]),
         initial,
@@ -175,6 +193,7 @@ def fine_tune_unit(unit: FineTuneUnit) -> dict:
         unit.settings,
         seed=unit.training_seed,
         device=device,
+        rehearsal=rehearsal,
     )
     evaluation, predicted = vessel_scores(model, real.subset(unit.split.test))
     if unit.shown:

@@ -26,8 +26,10 @@ from resus.experiments.sim2real import (
     Sim2RealSettings,
     Spread,
     curve_summary,
+    fine_tune,
     get_sim2real_preset,
     real_splits,
+    rehearsal_frames,
     repeated_to,
     run_sim2real,
     simulate_subjects,
@@ -40,7 +42,7 @@ from resus.experiments.vessel_targets import vessel_depth, vessel_midline
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.folders import read_folders
 from resus.segmentation.trained_model import load_model
-from resus.sweep.io import SweepReader
+from resus.sweep.io import SweepReader, read_sweep
 from sim.fingerprint import simulator_fingerprint
 from sim.phantom import VesselSpec, load_phantom
 from sim.ultrasound.scanner import RANDOM_RANGES, sweep_preset
@@ -54,6 +56,7 @@ TINY = Sim2RealSettings(
     splits=2,
     fine_tune_epochs=1,
     fine_tune_epoch_images=8,
+    rehearsal_images=4,
     minimum_test_images=6,
     training_cpus=1,
 )
@@ -119,12 +122,22 @@ def test_too_few_real_images_is_one_error_naming_the_settings():
         ({"ensemble": 0}, "ensemble must be at least 1"),
         ({"contact_forces": (5.0, 2.0)}, r"contact_forces must be \(low, high\)"),
         ({"target_depth_fraction": (0.5, 1.2)}, r"target_depth_fraction must be \(low, high\)"),
+        ({"rehearsal_images": -1}, "rehearsal_images must be >= 0, got -1"),
     ],
 )
 def test_settings_refuse_what_cannot_run(changes, message):
     base = {"name": "x", "subjects": (0,), "training": "quick"}
     with pytest.raises(ResusError, match=message):
         Sim2RealSettings(**{**base, **changes})
+
+
+def test_rehearsal_runs_fewer_epochs_for_the_same_number_of_images():
+    quick = get_sim2real_preset("quick")  # 80 epochs of 64 real images; 64 simulated added
+    assert quick.fine_tuning_epochs(rehearsal=False) == 80
+    assert quick.fine_tuning_epochs(rehearsal=True) == 40
+    assert dataclasses.replace(quick, rehearsal_images=0).fine_tuning_epochs(True) == 80
+    assert dataclasses.replace(quick, rehearsal_images=16).fine_tuning_epochs(True) == 64
+    assert TINY.fine_tuning_epochs(rehearsal=True) == 1  # never none
 
 
 def test_the_augmentation_probabilities_reach_the_training_preset():
@@ -182,6 +195,8 @@ def test_curve_summary_and_the_pretraining_verdict():
 
 @pytest.mark.slow
 def test_a_small_run_end_to_end(tmp_path):
+    import torch
+
     folder = write_real_folder(tmp_path / "real", 20)
     real = read_folders(folder / "images", folder / "masks")
     out = tmp_path / "out"
@@ -202,6 +217,30 @@ def test_a_small_run_end_to_end(tmp_path):
     assert model.config["augment"] and model.config["preset"]["augmentation"]["framing_p"] == 0.5
     assert results["sweeps"] == ["data/sweeps/subject_00.h5", "data/sweeps/subject_01.h5"]
     sweeps = [out / p for p in results["sweeps"]]  # under the output folder: relative to it
+
+    # rehearsal: frames of those sweeps, seeded, in the real masks' one vessel class; a
+    # fine-tuning from simulation trains on them besides the real images, in fewer epochs
+    frames = rehearsal_frames(sweeps, 4, 7, one_vessel_class=True)
+    again = rehearsal_frames(sweeps, 4, 7, one_vessel_class=True)
+    assert sum(len(part) for part in frames) == 4
+    assert all(np.array_equal(a.images, b.images) for a, b in zip(frames, again, strict=True))
+    assert all(set(np.unique(part.labels)) <= {0, 1} for part in frames)
+    two_classes = rehearsal_frames(sweeps, 4, 7, one_vessel_class=False)
+    swept = [read_sweep(path) for path in sweeps]
+    for part, kept in zip(frames, two_classes, strict=True):
+        assert np.array_equal(part.labels, (kept.labels > 0).astype(np.uint8))
+        for image, labels in zip(kept.images, kept.labels, strict=True):
+            assert any(
+                np.array_equal(image, frame) and np.array_equal(labels, label)
+                for sweep in swept
+                for frame, label in zip(sweep.frames, sweep.labels, strict=True)
+            )
+    with pytest.raises(ResusError, match=r"Sim2RealSettings\.rehearsal_images is 999"):
+        rehearsal_frames(sweeps, 999, 7, one_vessel_class=True)
+    tuned = fine_tune(real.subset(range(2)), model, TINY.training_preset(), TINY, seed=0,
+                      device=torch.device("cpu"), rehearsal=frames)  # fmt: skip
+    assert tuned.config["train_images"] == 8 + 4  # two real images repeated to 8, and 4
+    assert tuned.config["preset"]["max_epochs"] == TINY.fine_tuning_epochs(rehearsal=True)
 
     # its score on every real image, counted independently from its own predictions
     vessel = results["sim_only"]["pooled"]["vessel"]
@@ -245,6 +284,9 @@ def test_a_small_run_end_to_end(tmp_path):
     # simulation-only unit, finished (copied from the first run), is not trained again
     units = sorted((out / "few_label").glob("*/unit.json"))
     assert len(units) == 8
+    for unit in units:  # only a fine-tuning from simulation rehearses, so only its key says so
+        settings = json.loads(unit.read_text())["key"]["settings"]
+        assert ("rehearsal_images" in settings) == unit.parent.name.startswith(FROM_SIMULATION)
     again = tmp_path / "again"
     shutil.copytree(out / "sim_only", again / "sim_only")
     trained = (again / "sim_only" / "checkpoint.pt").stat().st_mtime_ns
@@ -382,6 +424,10 @@ def test_cli_refuses_a_real_folder_it_cannot_use(monkeypatch, capsys, tmp_path, 
         (
             ("--label-counts", "5,many"),
             "--label-counts: expected a list of comma-separated integers, got '5,many'",
+        ),
+        (
+            ("--rehearsal", "-1"),
+            "--rehearsal: Sim2RealSettings.rehearsal_images must be >= 0, got -1",
         ),
         # the curve asked for reaches the check of the real folder: 20 + 20 is more than 30
         (
