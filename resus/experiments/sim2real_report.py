@@ -89,6 +89,16 @@ def pretraining_verdict(summary: Mapping[str, Mapping[str, Mapping[str, float]]]
     )
 
 
+def _rehearsal_clause(frames: int) -> str:
+    """How a fine-tuning from simulation spends its budget, when it rehearses."""
+    if not frames:
+        return ""
+    return (
+        f"; one from simulation rehearses: {frames} simulated frames of its own training "
+        "sweeps join every epoch, in fewer epochs for the same total"
+    )
+
+
 def _ensemble_lines(members: Sequence[Mapping]) -> list[str]:
     """What an ensemble's members score alone (nothing for a single model)."""
     if not members:
@@ -140,8 +150,8 @@ def report_lines(results: Mapping, realism: RealismComparison) -> list[str]:
         f"{len(results['splits'])} random splits; each keeps {counts[-1]} images for "
         f"fine-tuning and tests on the other {', '.join(map(str, test_sizes))}. Each "
         f"fine-tuning sees {settings['fine_tune_epochs'] * settings['fine_tune_epoch_images']} "
-        "images (the k repeated). Pooled vessel IoU on the split's test images, mean ± "
-        "standard deviation over splits:",
+        f"images (the k repeated){_rehearsal_clause(settings.get('rehearsal_images', 0))}. "
+        "Pooled vessel IoU on the split's test images, mean ± standard deviation over splits:",
         "",
         "| real labels k | from simulation | from scratch |",
         "| ---: | ---: | ---: |",

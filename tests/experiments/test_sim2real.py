@@ -210,6 +210,7 @@ def test_a_small_run_end_to_end(tmp_path):
         assert (out / name).is_file(), name
     report = (out / "report.md").read_text()
     assert "No real image entered training" in report and "| 4 |" in report
+    assert "rehearses: 4 simulated frames of its own training sweeps join every epoch" in report
 
     # the simulation-only model learned from the simulated femoral subjects alone
     model = load_model(out / "sim_only" / "checkpoint.pt", "cpu")
