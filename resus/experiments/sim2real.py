@@ -57,6 +57,7 @@ from resus.segmentation.trained_model import Segmenter, TrainedModel
 from sim.fingerprint import simulator_fingerprint
 
 if TYPE_CHECKING:
+    from resus.experiments.sim2real_units import SimOnlyUnit
     from sim.phantom import PhantomSpec
     from sim.ultrasound.scanner import ScannerPreset
 
@@ -158,7 +159,7 @@ class Sim2RealSettings:
     runs fewer epochs so that both starts see the same number of images
     (`fine_tuning_epochs`). From scratch gets none: it is the curve's start without
     simulation. 0: none. Without it five real labels wrecked the start on one split of
-    usgra-seg (0.467 -> 0.086; with 64: 0.416; README Sim-to-real)."""
+    usgra-seg (0.467 -> 0.086; with 64: 0.481; README Sim-to-real)."""
     minimum_test_images: int = 20
     """The least the real set must leave for testing after the largest k."""
     training_cpus: int = 2
@@ -467,7 +468,7 @@ def rehearsal_frames(
 def few_label_curve(
     real: FolderImages,
     sim_only: TrainedModel,
-    sweeps: Sequence[Path],
+    trained_by: SimOnlyUnit,
     settings: Sim2RealSettings,
     out: Path,
     *,
@@ -483,7 +484,8 @@ def few_label_curve(
     `out/few_label/`), scored; with `example_count` of the first split's test images
     (`example_indices`) and the labels each model gave them, for the figure. k = 0 from
     simulation is `sim_only` itself (a saved model: the units load it), scored here;
-    `sweeps` are its training sweeps, which the fine-tunings from it rehearse."""
+    `trained_by` is the unit that trained it: its sweeps are what the fine-tunings from it
+    rehearse, and its key part of theirs."""
     from resus.execution import run_pending
     from resus.experiments.sim2real_units import (
         FEW_LABEL_FOLDER,
@@ -521,7 +523,8 @@ def few_label_curve(
             seed,
             device,
             sim_only.path,
-            tuple(sweeps),
+            trained_by.sweeps,
+            trained_by.key(),
             shown if split.index == 0 else (),
             out / FEW_LABEL_FOLDER / f"{initialisation}_k{k}_split{split.index}",
         )
@@ -796,7 +799,7 @@ def run_sim2real(
     splits, points, shown, examples = few_label_curve(
         real,
         members[0],
-        units[0].sweeps,
+        units[0],
         settings,
         out,
         seed=seed,

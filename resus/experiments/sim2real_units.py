@@ -120,17 +120,22 @@ class FineTuneUnit:
     """The simulation-only checkpoint (read when starting from simulation)."""
     sweeps: tuple[Path, ...]
     """Its training sweeps, whose frames a fine-tuning from it rehearses (`rehearsal_frames`)."""
+    sim_only_key: dict
+    """The key of the unit that trained it (`SimOnlyUnit.key`): the sweeps it learnt from,
+    down to the simulator that made them, so that a fine-tuning from an older model is not
+    taken for one from this."""
     shown: tuple[int, ...]
     """Indices into the split's test set whose predicted labels are kept for the figure."""
     folder: Path
 
     def key(self) -> dict:
-        """Everything the result depends on: the simulation-only model and its sweeps are
-        fixed by the settings, seed and device, which are here; from scratch, nothing is
-        rehearsed."""
+        """Everything the result depends on: from simulation, the simulation-only model
+        (its unit's key) and what it rehearses; from scratch, neither."""
         settings = self.settings.fine_tuning_key()
+        start = {"sim_only": self.sim_only_key}
         if self.initialisation != FROM_SIMULATION:
             del settings["rehearsal_images"]
+            start = {}
         return {
             "unit": "fine-tuning",
             "real": self.real_digest,
@@ -143,6 +148,7 @@ class FineTuneUnit:
             "device": self.device,
             "torch_threads": self.settings.training_cpus,
             "shown": list(self.shown),
+            **start,
         }
 
     @property

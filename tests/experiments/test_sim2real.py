@@ -285,9 +285,14 @@ def test_a_small_run_end_to_end(tmp_path):
     # simulation-only unit, finished (copied from the first run), is not trained again
     units = sorted((out / "few_label").glob("*/unit.json"))
     assert len(units) == 8
-    for unit in units:  # only a fine-tuning from simulation rehearses, so only its key says so
-        settings = json.loads(unit.read_text())["key"]["settings"]
-        assert ("rehearsal_images" in settings) == unit.parent.name.startswith(FROM_SIMULATION)
+    # only a fine-tuning from simulation rehearses and depends on the simulation-only model,
+    # whose unit's key holds its sweeps down to the simulator that made them
+    sim_only_key = json.loads((out / "sim_only" / "unit.json").read_text())["key"]
+    for unit in units:
+        key = json.loads(unit.read_text())["key"]
+        from_simulation = unit.parent.name.startswith(FROM_SIMULATION)
+        assert ("rehearsal_images" in key["settings"]) == from_simulation
+        assert key.get("sim_only") == (sim_only_key if from_simulation else None)
     again = tmp_path / "again"
     shutil.copytree(out / "sim_only", again / "sim_only")
     trained = (again / "sim_only" / "checkpoint.pt").stat().st_mtime_ns
