@@ -892,11 +892,18 @@ def is_cut(shape: tuple[int, ...], region: Region) -> bool:
     return columns.start == 0 or columns.stop == shape[1] or rows.stop == shape[0]
 
 
+def _region_moments(region: Region) -> tuple[np.ndarray, np.ndarray]:
+    """(its pixels' (rows, cols) within the box, their second moments): each pixel a unit
+    square, so the covariance of their centres plus a square's own `PIXEL_SECOND_MOMENT`."""
+    _, rows, cols = region
+    points = np.stack([rows, cols]).astype(np.float64)
+    return points, np.cov(points, bias=True) + PIXEL_SECOND_MOMENT * np.eye(2)
+
+
 def _region_shape(vessel: np.ndarray, region: Region) -> tuple[float, float, float]:
     """(aspect, area share, centre depth share) of one region of `vessel`."""
-    box, rows, cols = region
-    points = np.stack([rows, cols]).astype(np.float64)
-    covariance = np.cov(points, bias=True) + PIXEL_SECOND_MOMENT * np.eye(2)
+    box, rows, _ = region
+    _, covariance = _region_moments(region)
     smallest, largest = np.linalg.eigvalsh(covariance)
     centre_row = box[0].start + rows.mean() + 0.5  # pixel centres lie at row + 0.5
     return math.sqrt(largest / smallest), rows.size / vessel.size, centre_row / vessel.shape[0]
@@ -908,9 +915,8 @@ def ellipse_fit(region: Region) -> float:
     quarter of its semi-axis squared), counted over pixel centres: 1 for an exact ellipse up
     to its pixels' edges, less the more its outline bends in and out of one."""
     _, rows, cols = region
-    points = np.stack([rows, cols]).astype(np.float64)
+    points, covariance = _region_moments(region)
     centre = points.mean(axis=1)
-    covariance = np.cov(points, bias=True) + PIXEL_SECOND_MOMENT * np.eye(2)
     reach = 2.0 * math.sqrt(float(np.linalg.eigvalsh(covariance)[-1]))  # its semi-major axis
     low = np.floor(np.minimum(points.min(axis=1), centre - reach)).astype(int)
     high = np.ceil(np.maximum(points.max(axis=1), centre + reach)).astype(int) + 1

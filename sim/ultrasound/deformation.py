@@ -146,6 +146,8 @@ class ProbeDeformation:
             for index, artery in enumerate(self._arteries)
         ]
         """Per vessel, its edge's harmonics (amplitude, phase); none bend an artery's."""
+        self._bends = [float(harmonics[:, 0].sum()) for harmonics in self._harmonics]
+        """Per vessel, the most its edge bends out over the ellipse's radius (0: unbent)."""
         centrelines, radii = phantom.centrelines(), phantom.centreline_radii()
         self._nodes = np.concatenate([centrelines[name] for name in self._names])
         self._radii = np.concatenate([radii[name] for name in self._names])
@@ -247,6 +249,7 @@ class ProbeDeformation:
                     *crossing.span,
                     centre_shift,
                     *_edge_bend(self._harmonics[index], axis, across, other),
+                    self._bends[index],
                 ]
             )
             shapes.append(
@@ -280,17 +283,16 @@ class ProbeDeformation:
         ends = (nodes[[0, -1]] - centre) @ tangent
         cap = float(radii.max())
         span = (float(ends.min()) - cap, float(ends.max()) + cap)
-        bulge = 1.0 + float(self._harmonics[index][:, 0].sum())
-        return _Crossing(centre, tangent, radius, span, bulge)
+        return _Crossing(centre, tangent, radius, span, 1.0 + self._bends[index])
 
 
 def _edge_bend(
     harmonics: np.ndarray, axis: np.ndarray, across: np.ndarray, other: np.ndarray
 ) -> list[float]:
     """A map row's (cos, sin) coefficients of each harmonic of the angle from `across`
-    towards `other` (unit vectors across `axis`), then their amplitudes' sum, for an edge
-    bend whose phases are measured from the phantom's up projected across the axis (its x for
-    a vessel along z): the bend turns with the vessel, not with the probe."""
+    towards `other` (unit vectors across `axis`), for an edge bend whose phases are measured
+    from the phantom's up projected across the axis (its x for a vessel along z): the bend
+    turns with the vessel, not with the probe."""
     up = np.array([0.0, 0.0, 1.0]) - axis[2] * axis
     if up @ up < 1e-12:
         up = np.array([1.0, 0.0, 0.0]) - axis[0] * axis
@@ -299,7 +301,7 @@ def _edge_bend(
     for order, (amplitude, phase) in zip(VEIN_HARMONICS, harmonics, strict=True):
         turned = order * (offset + phase)
         coefficients += [amplitude * math.cos(turned), amplitude * math.sin(turned)]
-    return [*coefficients, float(harmonics[:, 0].sum())]
+    return coefficients
 
 
 def _fitted_ring(
