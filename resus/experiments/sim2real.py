@@ -38,6 +38,7 @@ import dataclasses
 import json
 import math
 from collections.abc import Sequence
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -58,6 +59,7 @@ from sim.fingerprint import simulator_fingerprint
 
 if TYPE_CHECKING:
     from resus.experiments.sim2real_units import SimOnlyUnit
+    from resus.sweep import SweepFrame
     from sim.phantom import PhantomSpec
     from sim.ultrasound.scanner import ScannerPreset
 
@@ -436,27 +438,35 @@ def rehearsal_frames(
 ) -> list[LabelledImages]:
     """`count` labelled frames drawn without replacement (seeded) from all of `sweeps`'
     frames, one set per frame size; with `one_vessel_class` every vessel is label 1, as in
-    masks that do not tell artery from vein."""
-    from resus.segmentation.loaders import load_sweep_frames
+    masks that do not tell artery from vein. Only the frames drawn are read from disk."""
+    from resus.segmentation.loaders import check_label_names, expand_paths
+    from resus.sweep.io import SweepReader
 
-    sets = load_sweep_frames(sweeps)
-    frames = [(s, i) for s, part in enumerate(sets) for i in range(len(part))]
-    if count > len(frames):
-        raise ResusError(
-            f"Sim2RealSettings.rehearsal_images is {count}, but the sweeps hold {len(frames)} "
-            "frames"
-        )
-    rng = np.random.default_rng([seed, REHEARSAL_STREAM])
-    by_shape: dict[tuple[int, ...], list[tuple[int, int]]] = {}
-    for j in sorted(rng.choice(len(frames), count, replace=False)):
-        s, i = frames[j]
-        by_shape.setdefault(sets[s].images.shape[1:], []).append((s, i))
+    with ExitStack() as stack:
+        readers = [stack.enter_context(SweepReader(p)) for p in expand_paths(sweeps, "sweep")]
+        for reader in readers:
+            if not reader.has_labels:
+                raise ResusError(
+                    "sweep has no labels: rehearsal needs labelled frames", reader.path
+                )
+            check_label_names(reader.label_names, reader.path)
+        frames = [(r, i) for r, reader in enumerate(readers) for i in range(len(reader))]
+        if count > len(frames):
+            raise ResusError(
+                f"Sim2RealSettings.rehearsal_images is {count}, but the sweeps hold "
+                f"{len(frames)} frames"
+            )
+        rng = np.random.default_rng([seed, REHEARSAL_STREAM])
+        by_shape: dict[tuple[int, ...], list[SweepFrame]] = {}
+        for j in sorted(rng.choice(len(frames), count, replace=False)):
+            r, i = frames[j]
+            by_shape.setdefault(readers[r].frame_shape, []).append(readers[r].frame(i))
     rehearsal = []
     for picked in by_shape.values():
-        labels = np.stack([sets[s].labels[i] for s, i in picked])
+        labels = np.stack([frame.label for frame in picked])
         rehearsal.append(
             LabelledImages(
-                np.stack([sets[s].images[i] for s, i in picked]),
+                np.stack([frame.image for frame in picked]),
                 (labels > 0).astype(np.uint8) if one_vessel_class else labels,
                 "simulated",
                 "rehearsal",
