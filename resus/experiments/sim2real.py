@@ -104,6 +104,16 @@ class Sim2RealSettings:
     sweep_offset: float = 0.010
     """Each subject's sweep starts up to this far (m) to either side of the nominal start: a
     sonographer's probe does not centre the vessels in the image."""
+    off_vessel_share: float = 0.0
+    """Share of the subjects (rounded, drawn from the seed) whose sweep lies off the vessels,
+    `off_vessel_offset` to either side of the nominal line: a sonographer's picture does not
+    always hold a vessel (10 % of usgra-seg's images hold none), and the muscles and nerve
+    beside the vessels are what a model must learn not to call vessel. A vessel that still
+    reaches into the picture is labelled as ever."""
+    off_vessel_offset: tuple[float, float] = (0.040, 0.050)
+    """Range of such a sweep's sideways distance from the nominal line (m): with the 38 mm
+    field, its edge 21-31 mm from the vessel pair's midline, past the vein's and the
+    artery's far walls, where the bellies beside the pair lie."""
     sweep_tilt_deg: float = 10.0
     """Each subject's probe is tilted by up to this much (degrees) either way along the sweep."""
     contact_forces: tuple[float, float] = (1.5, 3.5)
@@ -199,6 +209,16 @@ class Sim2RealSettings:
             raise ResusError(
                 f"{where}.sweep_offset must be >= 0 and sweep_tilt_deg in [0, 45), got "
                 f"{self.sweep_offset}, {self.sweep_tilt_deg}"
+            )
+        if not 0 <= self.off_vessel_share <= 1:
+            raise ResusError(
+                f"{where}.off_vessel_share must be in [0, 1], got {self.off_vessel_share}"
+            )
+        low, high = self.off_vessel_offset
+        if not 0 <= low <= high:
+            raise ResusError(
+                f"{where}.off_vessel_offset must be (low, high) with 0 <= low <= high (m), "
+                f"got {self.off_vessel_offset}"
             )
         low, high = self.contact_forces
         if not 0 < low <= high < 20:
@@ -625,14 +645,26 @@ def simulate_subjects(
     return paths
 
 
+def off_vessel_subjects(settings: Sim2RealSettings, seed: int) -> frozenset[int]:
+    """The subjects whose sweep lies off the vessels: `off_vessel_share` of them, rounded,
+    drawn from the seed."""
+    count = round(settings.off_vessel_share * len(settings.subjects))
+    rng = np.random.default_rng([seed, 0x0FF5])
+    return frozenset(int(k) for k in rng.choice(settings.subjects, count, replace=False))
+
+
 def subject_sweep(settings: Sim2RealSettings, subject: int, seed: int) -> LinearPattern:
-    """The nominal sweep moved sideways by up to `sweep_offset`, tilted by up to
+    """The nominal sweep moved sideways by up to `sweep_offset` (or, for the
+    `off_vessel_subjects`, by `off_vessel_offset` to one side), tilted by up to
     `sweep_tilt_deg` and pressed with a force in `contact_forces`, drawn from (seed, subject):
     every subject is scanned its own way."""
     rng = np.random.default_rng([seed, subject, 0x5EE9])
     offset = rng.uniform(-settings.sweep_offset, settings.sweep_offset)
     tilt = rng.uniform(-settings.sweep_tilt_deg, settings.sweep_tilt_deg)
     force = rng.uniform(*settings.contact_forces)
+    if subject in off_vessel_subjects(settings, seed):  # its own draw: the others' stay put
+        aside = np.random.default_rng([seed, subject, 0x0FF5])
+        offset = float(aside.choice((-1.0, 1.0)) * aside.uniform(*settings.off_vessel_offset))
     x, y = settings.sweep.start
     return dataclasses.replace(
         settings.sweep, start=(x + offset, y), tilt_deg=tilt, contact_force=float(force)

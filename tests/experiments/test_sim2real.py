@@ -28,6 +28,7 @@ from resus.experiments.sim2real import (
     curve_summary,
     fine_tune,
     get_sim2real_preset,
+    off_vessel_subjects,
     real_splits,
     rehearsal_frames,
     repeated_to,
@@ -123,6 +124,8 @@ def test_too_few_real_images_is_one_error_naming_the_settings():
         ({"contact_forces": (5.0, 2.0)}, r"contact_forces must be \(low, high\)"),
         ({"target_depth_fraction": (0.5, 1.2)}, r"target_depth_fraction must be \(low, high\)"),
         ({"rehearsal_images": -1}, "rehearsal_images must be >= 0, got -1"),
+        ({"off_vessel_share": 1.5}, r"off_vessel_share must be in \[0, 1\], got 1.5"),
+        ({"off_vessel_offset": (0.05, 0.04)}, r"off_vessel_offset must be \(low, high\)"),
     ],
 )
 def test_settings_refuse_what_cannot_run(changes, message):
@@ -463,6 +466,29 @@ def test_each_subject_is_scanned_its_own_way_within_the_settings_bounds():
     assert offsets.std() > TINY.sweep_offset / 3 and tilts.std() > TINY.sweep_tilt_deg / 3
     assert all(s.start[1] == TINY.sweep.start[1] and s.length == TINY.sweep.length for s in sweeps)
     assert subject_sweep(TINY, 5, 3) == sweeps[5] and subject_sweep(TINY, 5, 4) != sweeps[5]
+
+
+def test_a_share_of_the_subjects_is_scanned_off_the_vessels_and_the_rest_as_before():
+    subjects = tuple(range(40))
+    base = dataclasses.replace(TINY, subjects=subjects)
+    aside = dataclasses.replace(base, off_vessel_share=0.1)
+    off = off_vessel_subjects(aside, 3)
+    assert len(off) == 4 and off <= set(subjects)
+    assert off_vessel_subjects(aside, 3) == off and off_vessel_subjects(aside, 4) != off
+    assert off_vessel_subjects(base, 3) == frozenset()
+    low, high = aside.off_vessel_offset
+    sides = set()
+    for subject in subjects:
+        sweep, before = subject_sweep(aside, subject, 3), subject_sweep(base, subject, 3)
+        if subject in off:
+            offset = sweep.start[0] - aside.sweep.start[0]
+            assert low <= abs(offset) <= high, (subject, offset)
+            assert (sweep.tilt_deg, sweep.contact_force) == (before.tilt_deg, before.contact_force)
+            sides.add(np.sign(offset))
+        else:
+            assert sweep == before  # its sweep, and so its reused file, unchanged
+    everyone = dataclasses.replace(base, off_vessel_share=1.0)
+    assert sides | {np.sign(subject_sweep(everyone, k, 3).start[0]) for k in subjects} == {-1, 1}
 
 
 def test_a_sweep_is_reused_only_from_the_same_phantom_subject_seed_scanner_and_simulator():
