@@ -90,6 +90,16 @@ its sides: each region's middle third of the interior's columns over its outer t
 figure for a region cut by the image's side, whose middle is not the lumen's). Haze taken from
 the tissue beside a lumen alone leaves a dark slit down the middle of a lumen wider than that
 reach, a cue no real image offers.
+
+Dark tissue. What a network must learn not to call vessel: tissue as dark as the lumens, at
+their depth. Each image that shows a vessel region is smoothed with a Gaussian one wall band
+wide (a region's darkness is judged over an area, not a speckle grain); the lumens' level is
+the median smoothed grey of the regions' interiors (more than a band inside the edge), and the
+figure is the share of the tissue in the rows the regions span, more than four bands from every
+vessel (past the lumen contrast's ring), whose smoothed grey is at most that level. Real
+groins show muscle bellies and fat lobules as dark as the vessels beside them; a simulator
+whose vessels are the darkest thing at their depth teaches a network that the darkest blob
+there is the vessel.
 """
 
 from __future__ import annotations
@@ -345,6 +355,10 @@ class VesselShapeStats:
     """The same above them."""
     round_below_quantiles: tuple[float, ...] | None
     """The same below them."""
+    dark_tissue_quantiles: tuple[float, ...] | None
+    """Quantiles `QUANTILES`, over the images that show a vessel region, of the share of the
+    tissue at the vessels' depth that is as dark as their lumens (`dark_tissue_share`; None
+    when no image gives one)."""
 
 
 @dataclass(frozen=True)
@@ -411,7 +425,7 @@ def _shapes(
 def _per_vessel(figure: str, quantile: int) -> Callable[[RealismStats], float | None]:
     """A table row's getter of one quantile of a per-region figure: `figure` a contrast
     ("lumen", "lumen_middle", "wall_lateral", "wall_axial" or "round_beside", "_above",
-    "_below") or "ellipse_fit"."""
+    "_below"), "ellipse_fit" or the per-image "dark_tissue"."""
 
     def get(shapes: VesselShapeStats) -> float | None:
         quantiles = getattr(shapes, f"{figure}_quantiles")
@@ -518,6 +532,16 @@ TABLE: tuple[TableRow, ...] = (
     ("tissue round the lumen / its rows', beside, median", _per_vessel("round_beside", MEDIAN), 2),
     ("tissue round the lumen / its rows', above, median", _per_vessel("round_above", MEDIAN), 2),
     ("tissue round the lumen / its rows', below, median", _per_vessel("round_below", MEDIAN), 2),
+    (
+        "tissue at the vessels' depth as dark as their lumens, per image, median (share)",
+        _per_vessel("dark_tissue", MEDIAN),
+        3,
+    ),
+    (
+        "tissue at the vessels' depth as dark as their lumens, per image, 90th percentile",
+        _per_vessel("dark_tissue", NINETIETH),
+        3,
+    ),
 )
 """The comparison's rows: label, the figure of a set, decimals shown. The first five are the
 issue's table; speckle rows are None for a set without tissue windows."""
@@ -682,6 +706,8 @@ class _Accumulator:
         """Each uncut vessel region's overlap with its moment ellipse (`ellipse_fit`)."""
         self.contrasts: list[VesselContrast] = []
         """Lumen and wall contrasts of each vessel region."""
+        self.dark_tissue: list[float | None] = []
+        """Each image's share of the tissue at its vessels' depth as dark as their lumens."""
         self.line_angles = np.zeros(round(90 / ANGLE_BIN_DEGREES), np.int64)
         """Bright-line pixels per bin of their normal's angle to the beam."""
 
@@ -722,6 +748,11 @@ class _Accumulator:
         self.ellipse_fits.extend(map(ellipse_fit, uncut))
         if regions:
             self.centroid_offsets.append(centroid_offset(vessel, regions))
+            self.dark_tissue.append(
+                dark_tissue_share(
+                    image, vessel, settings.min_vessel_area, settings.wall_band, regions, clearance
+                )
+            )
 
     def _add_network_grain(self, image: np.ndarray, vessel: np.ndarray) -> None:
         """The grain's windows of the whole image resized to the network's input (margins
@@ -793,6 +824,7 @@ class _Accumulator:
             round_beside_quantiles=_present_quantiles([c.round_beside for c in self.contrasts]),
             round_above_quantiles=_present_quantiles([c.round_above for c in self.contrasts]),
             round_below_quantiles=_present_quantiles([c.round_below for c in self.contrasts]),
+            dark_tissue_quantiles=_present_quantiles(self.dark_tissue),
         )
 
 
@@ -1017,6 +1049,43 @@ def _region_contrasts(
         None if cut else _mean_ratio(grey[interior & middle], grey[interior & ~middle]),
         *(_mean_ratio(grey[ring & side], rows_tissue[ring & side]) for side in sides),
     )
+
+
+def dark_tissue_share(
+    image: np.ndarray,
+    vessel: np.ndarray,
+    min_area: float,
+    band: float,
+    regions: Sequence[Region] | None = None,
+    clearance: np.ndarray | None = None,
+) -> float | None:
+    """Share of the imaged area `image`'s tissue in the rows that the regions of at least
+    `min_area` of the mask `vessel` span, more than four `band`s of the imaged height from
+    every vessel, whose grey smoothed over a band is at most the regions' interiors' median
+    (module docstring, "Dark tissue"). None without regions, or with fewer than
+    `MIN_CONTRAST_PIXELS` interior or tissue pixels. `regions` (`_regions`) and `clearance`
+    (`_vessel_clearance(vessel)`): when they are already found."""
+    from scipy import ndimage
+
+    if regions is None:
+        regions = _regions(vessel, min_area)
+    if not regions:
+        return None
+    width = max(1.0, band * vessel.shape[0])
+    lumens = np.zeros(vessel.shape, bool)
+    for box, rows, cols in regions:
+        lumens[rows + box[0].start, cols + box[1].start] = True
+    interior = ndimage.distance_transform_edt(lumens) > width
+    if clearance is None:
+        clearance = _vessel_clearance(vessel)
+    top = min(box[0].start for box, _, _ in regions)
+    bottom = max(box[0].stop for box, _, _ in regions)
+    tissue = np.zeros(vessel.shape, bool)
+    tissue[top:bottom] = clearance[top:bottom] > 4 * width
+    if min(interior.sum(), tissue.sum()) < MIN_CONTRAST_PIXELS:
+        return None
+    smoothed = ndimage.gaussian_filter(image.astype(np.float64), width)
+    return float((smoothed[tissue] <= np.median(smoothed[interior])).mean())
 
 
 def _mean_ratio(part: np.ndarray, reference: np.ndarray) -> float | None:

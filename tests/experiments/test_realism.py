@@ -21,6 +21,7 @@ from resus.experiments.realism import (
     ImageSet,
     RealismSettings,
     compare,
+    dark_tissue_share,
     ellipse_fit,
     full_width_half_maximum,
     imaged_region,
@@ -442,6 +443,36 @@ def test_a_lumen_dark_down_its_middle_reads_below_one() -> None:
     assert shapes.lumen_middle_quantiles == pytest.approx((0.5,) * len(QUANTILES))
     at_side = np.roll(lumen, -80, axis=1)
     assert vessel_contrasts(image, at_side, 0.0, band=0.015)[0].lumen_middle is None
+
+
+def test_dark_tissue_is_the_share_at_the_vessels_depth_as_dark_as_their_lumens() -> None:
+    """Tissue at grey 100, a lumen at 30 (rows 80-119, columns 140-179) and a muscle at 5 (not
+    0, which would be a margin) down columns 0-59. A band is 3 px of the 200 rows; the tissue
+    counted lies in rows 80-119 more than 12 px from the lumen (columns 0-127 and 192-199: 40 x
+    136 pixels). Smoothed over a band, the lumen's interior reads 30 and the muscle's edge
+    moves by less than a band: 57 to 60 of its columns count, in all 40 rows. A dark band above
+    the vessel's rows is not at its depth and changes nothing; without the muscle nothing is
+    that dark."""
+    shape = (200, 200)
+    lumen = np.zeros(shape, bool)
+    lumen[80:120, 140:180] = True
+    plain = np.where(lumen, 30, 100).astype(np.uint8)
+    muscle = plain.copy()
+    muscle[:, :60] = 5
+    share = dark_tissue_share(muscle, lumen, 0.0, band=0.015)
+    assert share is not None and 57 * 40 / (40 * 136) <= share <= 60 * 40 / (40 * 136)
+    above = muscle.copy()
+    above[:40] = 5
+    assert dark_tissue_share(above, lumen, 0.0, band=0.015) == pytest.approx(share)
+    assert dark_tissue_share(plain, lumen, 0.0, band=0.015) == 0.0
+    shapes = measure(one_image(muscle, lumen)).vessel_shapes
+    assert shapes is not None and shapes.dark_tissue_quantiles == pytest.approx(
+        (share,) * len(QUANTILES)
+    )
+    # a lumen too thin for an interior gives no figure
+    thin = np.zeros(shape, bool)
+    thin[100:104, 140:180] = True
+    assert dark_tissue_share(muscle, thin, 0.0, band=0.015) is None
 
 
 def test_a_wall_that_scatters_like_tissue_shows_above_and_below_the_lumen_not_beside_it() -> None:
