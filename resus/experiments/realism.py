@@ -92,14 +92,14 @@ the tissue beside a lumen alone leaves a dark slit down the middle of a lumen wi
 reach, a cue no real image offers.
 
 Dark tissue. What a network must learn not to call vessel: tissue as dark as the lumens, at
-their depth. Each image that shows a vessel region is smoothed with a Gaussian one wall band
-wide (a region's darkness is judged over an area, not a speckle grain); the lumens' level is
-the median smoothed grey of the regions' interiors (more than a band inside the edge), and the
-figure is the share of the tissue in the rows the regions span, more than four bands from every
-vessel (past the lumen contrast's ring), whose smoothed grey is at most that level. Real
-groins show muscle bellies and fat lobules as dark as the vessels beside them; a simulator
-whose vessels are the darkest thing at their depth teaches a network that the darkest blob
-there is the vessel.
+their depth. Each image that shows a vessel region is smoothed with a Gaussian whose standard
+deviation is one wall band (a region's darkness is judged over an area, not a speckle grain);
+the lumens' level is the median smoothed grey of the regions' interiors (more than a band
+inside the edge), and the figure is the share of the tissue in the rows the regions span, more
+than four bands from every vessel (past the lumen contrast's ring), whose smoothed grey is at
+most that level. Real groins show muscle bellies and fat lobules as dark as the vessels beside
+them; a simulator whose vessels are the darkest thing at their depth teaches a network that
+the darkest blob there is the vessel.
 """
 
 from __future__ import annotations
