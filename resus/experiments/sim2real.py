@@ -210,10 +210,6 @@ class Sim2RealSettings:
                 f"{where}.sweep_offset must be >= 0 and sweep_tilt_deg in [0, 45), got "
                 f"{self.sweep_offset}, {self.sweep_tilt_deg}"
             )
-        if not 0 <= self.off_vessel_share <= 1:
-            raise ResusError(
-                f"{where}.off_vessel_share must be in [0, 1], got {self.off_vessel_share}"
-            )
         low, high = self.off_vessel_offset
         if not 0 <= low <= high:
             raise ResusError(
@@ -233,7 +229,8 @@ class Sim2RealSettings:
                     f"{where}.target_depth_fraction must be (low, high) with 0 < low <= high "
                     f"< 1, got {self.target_depth_fraction}"
                 )
-        for name in ("export_framing_p", "zoom_p", "elastic_p", "vertical_flip_p"):
+        shares = ("off_vessel_share", "export_framing_p", "zoom_p", "elastic_p", "vertical_flip_p")
+        for name in shares:
             if not 0 <= getattr(self, name) <= 1:
                 raise ResusError(f"{where}.{name} must be in [0, 1], got {getattr(self, name)}")
         get_preset(self.training)  # an unknown preset fails here, before any work
