@@ -74,7 +74,9 @@ def save_curves(out: Path, histories: Mapping[str, TrainingSummary], subject: st
     for name, training in histories.items():
         file_name = "curves_" + name.replace(" + ", "_").replace(" ", "_") + ".png"
         title = f"{name}, {subject}"
-        plot_training_curves(training.history, training.best_epoch, out / file_name, title)
+        plot_training_curves(
+            training.history, training.best_epoch, out / file_name, title, training.weight_average
+        )
         names.append(file_name)
     return names
 

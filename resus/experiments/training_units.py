@@ -29,6 +29,7 @@ if TYPE_CHECKING:  # torch is imported only where a unit trains or a model is lo
     import torch
     from torch import nn
 
+    from resus.segmentation.averaging import WeightAverageRecord
     from resus.segmentation.data import LabelledImages
     from resus.segmentation.loso import Split
     from resus.segmentation.train import TrainingSummary
@@ -158,6 +159,21 @@ def _summary(data: dict) -> TrainingSummary:
         _iou(data["best_validation_iou"]),
         data["images_per_second"],
         history,
+        _weight_average(data.get("weight_average")),
+    )
+
+
+def _weight_average(data: dict | None) -> WeightAverageRecord | None:
+    from resus.segmentation.averaging import WeightAverageRecord
+
+    if data is None:
+        return None
+    return WeightAverageRecord(
+        data["first_epoch"],
+        data["last_epoch"],
+        data["steps"],
+        data["validation_loss"],
+        _iou(data["validation_iou"]),
     )
 
 

@@ -9,13 +9,19 @@ from typing import TYPE_CHECKING
 from resus.segmentation.metrics import IOU_METRICS
 
 if TYPE_CHECKING:  # the curves need matplotlib only, not torch
+    from resus.segmentation.averaging import WeightAverageRecord
     from resus.segmentation.train import EpochRecord
 
 
 def plot_training_curves(
-    history: Sequence[EpochRecord], best_epoch: int, path: Path, title: str = ""
+    history: Sequence[EpochRecord],
+    best_epoch: int,
+    path: Path,
+    title: str = "",
+    averaged: WeightAverageRecord | None = None,
 ) -> None:
-    """Train/validation loss and validation IoU (artery, vein, mean) per epoch."""
+    """Train/validation loss and validation IoU (artery, vein, mean) per epoch; the best
+    epoch marked, or the epochs whose weights were `averaged` shaded."""
     from matplotlib.figure import Figure
 
     epochs = [record.epoch for record in history]
@@ -29,7 +35,11 @@ def plot_training_curves(
         ious.plot(epochs, values, "o-", label=name)
     ious.set(xlabel="epoch", ylabel="IoU", title="validation IoU", ylim=(0, 1))
     for axes in (losses, ious):
-        axes.axvline(best_epoch, color="grey", linestyle="--", label="best epoch")
+        if averaged is None:
+            axes.axvline(best_epoch, color="grey", linestyle="--", label="best epoch")
+        else:
+            window = (averaged.first_epoch - 0.5, averaged.last_epoch + 0.5)
+            axes.axvspan(*window, color="grey", alpha=0.2, label="weights averaged")
         axes.legend()
         axes.grid(alpha=0.3)
     figure.suptitle(title)

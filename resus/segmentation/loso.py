@@ -175,7 +175,11 @@ def run_regime(
     if out_dir is not None:
         title = f"{regime}, test subject {split.test_subject}"
         plot_training_curves(
-            training.history, training.best_epoch, Path(out_dir) / "curves.png", title
+            training.history,
+            training.best_epoch,
+            Path(out_dir) / "curves.png",
+            title,
+            training.weight_average,
         )
     test_iou = pooled_iou(training.model, split.test, preset) if split.test else None
     return RegimeRun(regime, split, training, test_iou)

@@ -129,6 +129,12 @@ class TrainingPreset:
     """Upper bound on passes over the training set."""
     patience: int = 10
     """Stop after this many epochs without a lower validation loss; the best epoch is kept."""
+    weight_averaging_epochs: int = 0
+    """Run every epoch and return the mean of the weights after each step of the last this
+    many (stochastic weight averaging, `resus.segmentation.averaging`), its batch-norm
+    statistics measured over the training images, instead of the best epoch's weights; early
+    stopping is then off. Meant for a constant rate (`cosine_decay` off): a rate decayed to
+    zero leaves little to average. 0: off."""
     validation_fraction: float = 0.15
     """Share of each training subject's frames held out for validation (the last block of
     each frame set, so neighbouring frames of a sweep rarely straddle the split)."""
@@ -151,6 +157,11 @@ class TrainingPreset:
                 raise ResusError(
                     f"TrainingPreset.{name} must be at least 1, got {getattr(self, name)}"
                 )
+        if not 0 <= self.weight_averaging_epochs <= self.max_epochs:
+            raise ResusError(
+                f"TrainingPreset.weight_averaging_epochs must be in [0, max_epochs = "
+                f"{self.max_epochs}], got {self.weight_averaging_epochs}"
+            )
 
     def to_dict(self) -> dict:
         """JSON-able form, stored in checkpoints and metrics files."""

@@ -3,7 +3,9 @@
 Adam on Dice (+ cross-entropy), one pass over the shuffled training images per epoch, then
 validation loss and pooled IoU on the validation images. Training stops after `patience`
 epochs without a lower validation loss, and the model returned (and checkpointed) is the one
-from the best epoch. With the same seed, data and device, two runs give the same weights.
+from the best epoch; with `TrainingPreset.weight_averaging_epochs`, every epoch runs and the
+model is the mean of the weights over the last ones' steps (`resus.segmentation.averaging`).
+With the same seed, data and device, two runs give the same weights.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from tqdm import tqdm
 
 from resus.errors import ResusError
 from resus.segmentation.augment import build_augmentation
+from resus.segmentation.averaging import WeightAverage, WeightAverageRecord
 from resus.segmentation.checkpoint import save_checkpoint
 from resus.segmentation.data import LabelledImages, SegmentationDataset
 from resus.segmentation.inference import class_argmax
@@ -64,6 +67,8 @@ class TrainingSummary:
     images_per_second: float
     """Mean training throughput over all epochs."""
     history: tuple[EpochRecord, ...]
+    weight_average: WeightAverageRecord | None = None
+    """The averaged network's steps and validation scores, when it is the model."""
 
     def to_dict(self) -> dict:
         """JSON-able form, as metrics.json stores it."""
@@ -75,18 +80,24 @@ class TrainingSummary:
             "best_validation_iou": self.best_validation_iou.to_dict(),
             "images_per_second": self.images_per_second,
             "history": [record.to_dict() for record in self.history],
+            "weight_average": None
+            if self.weight_average is None
+            else self.weight_average.to_dict(),
         }
 
 
 @dataclass
 class TrainingResult:
-    """The best model, its checkpoint config and the per-epoch history."""
+    """The model (the best epoch's, or the weight average), its checkpoint config and the
+    per-epoch history."""
 
     model: nn.Module
     config: dict
     history: list[EpochRecord]
     best_epoch: int
     stopped_early: bool
+    weight_average: WeightAverageRecord | None = None
+    """Set when the model is the mean of the last epochs' weights, not the best epoch's."""
 
     @property
     def images_per_second(self) -> float:
@@ -95,7 +106,7 @@ class TrainingResult:
 
     @property
     def best(self) -> EpochRecord:
-        """The record of the best epoch (the one whose model this is)."""
+        """The record of the best epoch (the one whose model this is, unless averaged)."""
         return self.history[self.best_epoch - 1]
 
     def summary(self) -> TrainingSummary:
@@ -108,6 +119,7 @@ class TrainingResult:
             best_validation_iou=self.best.validation_iou,
             images_per_second=self.images_per_second,
             history=tuple(self.history),
+            weight_average=self.weight_average,
         )
 
 
@@ -139,8 +151,8 @@ def train_model(
     `augment` turns on the preset's random transforms; `encoder_weights` starts the encoder
     from a local torchvision ResNet file; `initial_state` starts the whole network from a
     trained one of the preset's architecture (fine-tuning). The best model is written to
-    `checkpoint_path` (when given) each time the validation loss improves; `run_info` is added
-    to its config.
+    `checkpoint_path` (when given) each time the validation loss improves, or with weight
+    averaging the averaged one at the end; `run_info` is added to its config.
     """
     device = device if isinstance(device, torch.device) else resolve_device(device)
     seed_everything(seed)
@@ -176,13 +188,19 @@ def train_model(
         **(run_info or {}),
     }
 
+    averaged_epochs = preset.weight_averaging_epochs
+    average = (
+        WeightAverage(model, preset.max_epochs - averaged_epochs + 1) if averaged_epochs else None
+    )
     history: list[EpochRecord] = []
     best_loss, best_epoch, best_state = float("inf"), 0, None
     with TrainingProgress(preset.max_epochs, len(loader), progress) as bar:
         for epoch in range(1, preset.max_epochs + 1):
+            averaging = average if average is not None and average.covers(epoch) else None
             train_loss, seconds = train_one_epoch(
-                model, loader, loss_function, optimiser, device, bar.batch_done, schedule
-            )
+                model, loader, loss_function, optimiser, device, bar.batch_done, schedule,
+                averaging,
+            )  # fmt: skip
             validation_loss, validation_iou = evaluate(
                 model, validation_data, loss_function, preset.evaluation_batch_size
             )
@@ -199,17 +217,30 @@ def train_model(
                 )
             if validation_loss < best_loss:
                 best_loss, best_epoch = validation_loss, epoch
-                best_state = {
-                    key: value.detach().clone() for key, value in model.state_dict().items()
-                }
-                config["best_epoch"] = epoch
-                if checkpoint_path is not None:
-                    save_checkpoint(checkpoint_path, model, config)
-            elif epoch - best_epoch >= preset.patience:
+                if average is None:
+                    best_state = {
+                        key: value.detach().clone() for key, value in model.state_dict().items()
+                    }
+                    config["best_epoch"] = epoch
+                    if checkpoint_path is not None:
+                        save_checkpoint(checkpoint_path, model, config)
+            elif average is None and epoch - best_epoch >= preset.patience:
                 break
-    model.load_state_dict(best_state)
     stopped_early = len(history) < preset.max_epochs
-    return TrainingResult(model.eval(), config, history, best_epoch, stopped_early)
+    if average is None:
+        model.load_state_dict(best_state)
+        return TrainingResult(model.eval(), config, history, best_epoch, stopped_early)
+    model = average.network(loader, device)
+    validation_loss, validation_iou = evaluate(
+        model, validation_data, loss_function, preset.evaluation_batch_size
+    )
+    record = WeightAverageRecord(
+        average.first_epoch, len(history), average.steps, validation_loss, validation_iou
+    )
+    config["weight_average"] = record.to_dict()
+    if checkpoint_path is not None:
+        save_checkpoint(checkpoint_path, model, config)
+    return TrainingResult(model.eval(), config, history, best_epoch, stopped_early, record)
 
 
 def learning_rate_schedule(
@@ -277,9 +308,11 @@ def train_one_epoch(
     device: torch.device,
     on_batch: Callable[[], None] | None = None,
     schedule: torch.optim.lr_scheduler.LRScheduler | None = None,
+    average: WeightAverage | None = None,
 ) -> tuple[float, float]:
     """One pass over `loader`: (mean loss per image, seconds taken); `on_batch()` after each
-    batch (a progress bar); `schedule` (if any) steps the learning rate after each batch."""
+    batch (a progress bar); `schedule` (if any) steps the learning rate after each batch, and
+    each step's weights join `average` (if any)."""
     model.train()
     total, count = 0.0, 0
     start = time.perf_counter()
@@ -291,6 +324,8 @@ def train_one_epoch(
         optimiser.step()
         if schedule is not None:
             schedule.step()
+        if average is not None:
+            average.add(model)
         total += loss.item() * len(images)
         count += len(images)
         if on_batch is not None:

@@ -5,8 +5,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import torch
+from torch.optim.optimizer import register_optimizer_step_post_hook
 from torch.utils.data import DataLoader
 
+from resus.errors import ResusError
+from resus.segmentation.checkpoint import load_checkpoint
 from resus.segmentation.data import SegmentationDataset
 from resus.segmentation.losses import SegmentationLoss
 from resus.segmentation.model import build_model
@@ -110,3 +113,61 @@ def test_cosine_decay_lowers_the_rate_every_step_to_zero_at_the_last_epoch(
     # after epoch e of E: rate * (1 + cos(pi e / E)) / 2; constant without the decay
     expected = (1 + np.cos(np.pi * epochs / preset.max_epochs)) / 2 if cosine_decay else 1.0
     np.testing.assert_allclose(rates, preset.learning_rate * expected, atol=1e-12)
+
+
+def test_weight_averaging_returns_the_mean_of_the_last_epochs_step_weights(tmp_path) -> None:
+    train_sets, validation_sets = train_twice_data()  # 40 images: 5 steps of 8 an epoch
+    preset = replace(QUICK, max_epochs=3, patience=1, weight_averaging_epochs=2)
+    steps: list[dict[str, torch.Tensor]] = []
+
+    def record(optimiser: torch.optim.Optimizer, *_: object) -> None:
+        # each step's weights, read from the optimiser's own parameters
+        params = [p for group in optimiser.param_groups for p in group["params"]]
+        steps.append({str(i): p.detach().clone() for i, p in enumerate(params)})
+
+    hook = register_optimizer_step_post_hook(record)
+    try:
+        result = train_model(
+            train_sets, validation_sets, preset, checkpoint_path=tmp_path / "c.pt", progress=False
+        )
+    finally:
+        hook.remove()
+    assert len(steps) == 15 and len(result.history) == 3 and not result.stopped_early
+    averaged = steps[5:]  # epochs 2 and 3
+    parameters = list(result.model.parameters())
+    for i, parameter in enumerate(parameters):
+        mean = torch.stack([step[str(i)] for step in averaged]).mean(0)
+        torch.testing.assert_close(parameter.detach(), mean, rtol=1e-5, atol=1e-6)
+    record_ = result.weight_average
+    assert record_ is not None and (record_.first_epoch, record_.last_epoch) == (2, 3)
+    assert record_.steps == 10 and "best_epoch" not in result.config
+    assert result.summary().to_dict()["weight_average"]["steps"] == 10
+    # batch norm measured afresh in one pass over the training images: 5 batches, not the 15
+    # of training (0 in the encoder's stages past its depth, which never run)
+    norms = [m for m in result.model.modules() if isinstance(m, torch.nn.BatchNorm2d)]
+    counts = [int(m.num_batches_tracked) for m in norms]
+    assert set(counts) == {0, 5} and counts[0] == 5
+    loaded, config = load_checkpoint(tmp_path / "c.pt")
+    assert config["weight_average"]["first_epoch"] == 2
+    for key, value in result.model.state_dict().items():
+        torch.testing.assert_close(loaded.state_dict()[key], value, rtol=0, atol=0)
+
+
+def test_weight_averaging_beyond_the_run_is_refused() -> None:
+    with pytest.raises(ResusError, match=r"TrainingPreset.weight_averaging_epochs .* got 9"):
+        replace(QUICK, max_epochs=8, weight_averaging_epochs=9)
+
+
+def test_a_training_outcome_with_a_weight_average_survives_json(tmp_path) -> None:
+    import json
+
+    from resus.experiments.training_units import TrainingOutcome
+
+    train_sets, validation_sets = train_twice_data()
+    preset = replace(QUICK, max_epochs=2, weight_averaging_epochs=1)
+    result = train_model(train_sets, validation_sets, preset, progress=False)
+    average = result.weight_average
+    assert average is not None
+    outcome = TrainingOutcome({}, average.validation_iou, 40, result.summary(), "cpu")
+    again = TrainingOutcome.from_dict(json.loads(json.dumps(outcome.to_dict())))
+    assert again == outcome and again.summary.weight_average == average
