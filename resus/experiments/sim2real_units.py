@@ -78,7 +78,8 @@ class SimOnlyUnit:
 
 def train_sim_only(unit: SimOnlyUnit) -> dict:
     """Run the unit: train on every sweep's frames (a validation tail held out), checkpoint
-    the best epoch; its best epoch and validation IoU."""
+    the model (the best epoch's, or the weight average); its validation IoU and which epochs
+    it comes from."""
     import torch
 
     from resus.segmentation.loaders import load_sweep_frames
@@ -86,7 +87,7 @@ def train_sim_only(unit: SimOnlyUnit) -> dict:
     from resus.segmentation.model import resolve_device
 
     torch.set_num_threads(unit.settings.training_cpus)
-    preset = unit.settings.training_preset()
+    preset = unit.settings.simulation_training_preset()
     split = make_split(load_sweep_frames(unit.sweeps), [], None, preset.validation_fraction)
     run = run_regime(
         split,
@@ -97,6 +98,12 @@ def train_sim_only(unit: SimOnlyUnit) -> dict:
         out_dir=unit.folder,
         progress=unit.progress,
     )
+    average = run.training.weight_average
+    if average is not None:
+        return {
+            "weight_average": average.to_dict(),
+            "validation_iou": average.validation_iou.to_dict(),
+        }
     best = run.training.best
     return {"best_epoch": best.epoch, "validation_iou": best.validation_iou.to_dict()}
 

@@ -126,6 +126,11 @@ def test_too_few_real_images_is_one_error_naming_the_settings():
         ({"rehearsal_images": -1}, "rehearsal_images must be >= 0, got -1"),
         ({"off_vessel_share": 1.5}, r"off_vessel_share must be in \[0, 1\], got 1.5"),
         ({"off_vessel_offset": (0.05, 0.04)}, r"off_vessel_offset must be \(low, high\)"),
+        (
+            {"weight_averaging_epochs": 9},
+            r"weight_averaging_epochs must be in \[0, 8\] \(the max_epochs of training preset "
+            r"'quick'\), got 9",
+        ),
     ],
 )
 def test_settings_refuse_what_cannot_run(changes, message):
@@ -150,6 +155,14 @@ def test_the_augmentation_probabilities_reach_the_training_preset():
     augmentation = settings.training_preset().augmentation
     assert (augmentation.zoom_p, augmentation.elastic_p) == (0.2, 0.3)
     assert (augmentation.framing_p, augmentation.vertical_flip_p) == (0.5, 0.0)
+
+
+def test_the_simulation_only_training_averages_its_last_epochs_at_a_constant_rate():
+    preset = TINY.simulation_training_preset()  # the quick training preset: 8 epochs
+    assert (preset.weight_averaging_epochs, preset.cosine_decay) == (5, False)
+    assert TINY.training_preset().weight_averaging_epochs == 0  # the fine-tunings' preset
+    plain = dataclasses.replace(TINY, weight_averaging_epochs=0)
+    assert plain.simulation_training_preset() == plain.training_preset()
 
 
 def test_presets_and_unknown_preset():
@@ -219,6 +232,9 @@ def test_a_small_run_end_to_end(tmp_path):
     model = load_model(out / "sim_only" / "checkpoint.pt", "cpu")
     assert sorted(model.config["train_subjects"]) == ["femoral/0", "femoral/1"]
     assert model.config["augment"] and model.config["preset"]["augmentation"]["framing_p"] == 0.5
+    # ... the mean of its weights over the last five of its eight epochs' steps
+    assert model.config["weight_average"]["first_epoch"] == 4
+    assert model.config["weight_average"]["last_epoch"] == 8
     assert results["sweeps"] == ["data/sweeps/subject_00.h5", "data/sweeps/subject_01.h5"]
     sweeps = [out / p for p in results["sweeps"]]  # under the output folder: relative to it
 
@@ -245,6 +261,7 @@ def test_a_small_run_end_to_end(tmp_path):
                       device=torch.device("cpu"), rehearsal=frames)  # fmt: skip
     assert tuned.config["train_images"] == 8 + 4  # two real images repeated to 8, and 4
     assert tuned.config["preset"]["max_epochs"] == TINY.fine_tuning_epochs(rehearsal=True)
+    assert "weight_average" not in tuned.config
 
     # its score on every real image, counted independently from its own predictions
     vessel = results["sim_only"]["pooled"]["vessel"]
