@@ -16,7 +16,7 @@ import hashlib
 import json
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -29,7 +29,6 @@ if TYPE_CHECKING:  # torch is imported only where a unit trains or a model is lo
     import torch
     from torch import nn
 
-    from resus.segmentation.averaging import WeightAverageRecord
     from resus.segmentation.data import LabelledImages
     from resus.segmentation.loso import Split
     from resus.segmentation.train import TrainingSummary
@@ -115,66 +114,27 @@ class TrainingOutcome:
 
     def to_dict(self) -> dict:
         return {
+            **asdict(self),
             "test_iou": {name: iou.to_dict() for name, iou in self.test_iou.items()},
             "validation_iou": self.validation_iou.to_dict(),
-            "train_images": self.train_images,
             "summary": self.summary.to_dict(),
-            "device": self.device,
         }
 
     @classmethod
     def from_dict(cls, data: dict) -> TrainingOutcome:
         """Inverse of `to_dict` (JSON keeps every float exactly)."""
+        from resus.segmentation.train import TrainingSummary
+
         return cls(
-            {name: _iou(iou) for name, iou in data["test_iou"].items()},
-            _iou(data["validation_iou"]),
-            data["train_images"],
-            _summary(data["summary"]),
-            data["device"],
+            **{
+                **data,
+                "test_iou": {
+                    name: VesselIoU.from_dict(iou) for name, iou in data["test_iou"].items()
+                },
+                "validation_iou": VesselIoU.from_dict(data["validation_iou"]),
+                "summary": TrainingSummary.from_dict(data["summary"]),
+            }
         )
-
-
-def _iou(data: dict) -> VesselIoU:
-    return VesselIoU(data["artery"], data["vein"])
-
-
-def _summary(data: dict) -> TrainingSummary:
-    from resus.segmentation.train import EpochRecord, TrainingSummary
-
-    history = tuple(
-        EpochRecord(
-            r["epoch"],
-            r["train_loss"],
-            r["validation_loss"],
-            _iou(r["validation_iou"]),
-            r["images_per_second"],
-        )
-        for r in data["history"]
-    )
-    return TrainingSummary(
-        data["best_epoch"],
-        data["epochs_run"],
-        data["stopped_early"],
-        data["best_validation_loss"],
-        _iou(data["best_validation_iou"]),
-        data["images_per_second"],
-        history,
-        _weight_average(data.get("weight_average")),
-    )
-
-
-def _weight_average(data: dict | None) -> WeightAverageRecord | None:
-    from resus.segmentation.averaging import WeightAverageRecord
-
-    if data is None:
-        return None
-    return WeightAverageRecord(
-        data["first_epoch"],
-        data["last_epoch"],
-        data["steps"],
-        data["validation_loss"],
-        _iou(data["validation_iou"]),
-    )
 
 
 def relabelled(sets: Sequence[LabelledImages], subject: str) -> tuple[LabelledImages, ...]:

@@ -13,7 +13,7 @@ measured afresh in one pass over the training images (`torch.optim.swa_utils.upd
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import torch
 from torch import nn
@@ -60,10 +60,9 @@ class WeightAverageRecord:
     validation_iou: VesselIoU
 
     def to_dict(self) -> dict:
-        return {
-            "first_epoch": self.first_epoch,
-            "last_epoch": self.last_epoch,
-            "steps": self.steps,
-            "validation_loss": self.validation_loss,
-            "validation_iou": self.validation_iou.to_dict(),
-        }
+        return {**asdict(self), "validation_iou": self.validation_iou.to_dict()}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> WeightAverageRecord:
+        """Inverse of `to_dict`."""
+        return cls(**{**data, "validation_iou": VesselIoU.from_dict(data["validation_iou"])})

@@ -67,6 +67,11 @@ class VesselIoU:
     def to_dict(self) -> dict[str, float]:
         return {**asdict(self), "mean": self.mean}
 
+    @classmethod
+    def from_dict(cls, data: dict) -> VesselIoU:
+        """Inverse of `to_dict` (the mean follows from the two)."""
+        return cls(data["artery"], data["vein"])
+
 
 def vessel_iou(predicted: np.ndarray, truth: np.ndarray) -> VesselIoU:
     """Pooled IoU of label maps of any (matching) shape."""

@@ -13,7 +13,7 @@ from __future__ import annotations
 import random
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -46,13 +46,12 @@ class EpochRecord:
     """Training throughput of the epoch (forward, backward, step and data loading)."""
 
     def to_dict(self) -> dict:
-        return {
-            "epoch": self.epoch,
-            "train_loss": self.train_loss,
-            "validation_loss": self.validation_loss,
-            "validation_iou": self.validation_iou.to_dict(),
-            "images_per_second": self.images_per_second,
-        }
+        return {**asdict(self), "validation_iou": self.validation_iou.to_dict()}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> EpochRecord:
+        """Inverse of `to_dict`."""
+        return cls(**{**data, "validation_iou": VesselIoU.from_dict(data["validation_iou"])})
 
 
 @dataclass(frozen=True)
@@ -72,18 +71,28 @@ class TrainingSummary:
 
     def to_dict(self) -> dict:
         """JSON-able form, as metrics.json stores it."""
+        average = self.weight_average
         return {
-            "best_epoch": self.best_epoch,
-            "epochs_run": self.epochs_run,
-            "stopped_early": self.stopped_early,
-            "best_validation_loss": self.best_validation_loss,
+            **asdict(self),
             "best_validation_iou": self.best_validation_iou.to_dict(),
-            "images_per_second": self.images_per_second,
             "history": [record.to_dict() for record in self.history],
-            "weight_average": None
-            if self.weight_average is None
-            else self.weight_average.to_dict(),
+            "weight_average": None if average is None else average.to_dict(),
         }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> TrainingSummary:
+        """Inverse of `to_dict` (a record from before weight averaging has no average)."""
+        average = data.get("weight_average")
+        return cls(
+            **{
+                **data,
+                "best_validation_iou": VesselIoU.from_dict(data["best_validation_iou"]),
+                "history": tuple(EpochRecord.from_dict(record) for record in data["history"]),
+                "weight_average": None
+                if average is None
+                else WeightAverageRecord.from_dict(average),
+            }
+        )
 
 
 @dataclass
