@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from resus.cli.options import DeviceOption, WeightsOption
 from resus.cli.parsers import flag_error, parse_choice
 from resus.errors import ResusError
+
+if TYPE_CHECKING:  # for the annotation only: importing it loads torch
+    from resus.segmentation.train import TrainingSummary
 
 
 def register(app: typer.Typer) -> None:
@@ -43,6 +46,13 @@ def register(app: typer.Typer) -> None:
         ] = "quick",
         device: DeviceOption = "auto",
         seed: Annotated[int, typer.Option(help="Seeds weights, data order, augmentation.")] = 0,
+        average_epochs: Annotated[
+            int,
+            typer.Option(
+                help="Keep the mean of the weights over the last N epochs' steps at a constant "
+                "rate (stochastic weight averaging; every epoch runs), not the best epoch's."
+            ),
+        ] = 0,
         weights: WeightsOption = None,
         test_subject: Annotated[
             str | None,
@@ -69,6 +79,8 @@ def register(app: typer.Typer) -> None:
             raise ResusError("--regime imagenet: no encoder weights file given (--weights)")
         with flag_error("--preset"):
             settings = get_preset(preset)
+        with flag_error("--average-epochs"):
+            settings = settings.weight_averaged(average_epochs)
         with flag_error("--device"):
             torch_device = resolve_device(device)
         with flag_error("--sweeps"):
@@ -91,7 +103,13 @@ def register(app: typer.Typer) -> None:
             )
         out.mkdir(parents=True, exist_ok=True)
         metrics_path = out / "metrics.json"
-        metrics = {"regime": regime, "preset": preset, "seed": seed, "test_subject": test_subject}
+        metrics = {
+            "regime": regime,
+            "preset": preset,
+            "average_epochs": average_epochs,
+            "seed": seed,
+            "test_subject": test_subject,
+        }
         run = run_regime(
             split,
             regime,
@@ -114,10 +132,7 @@ def register(app: typer.Typer) -> None:
         )
         metrics_path.write_text(json.dumps(metrics, indent=2) + "\n")
         typer.echo(
-            f"best epoch {summary.best_epoch}/{summary.epochs_run}: validation loss "
-            f"{summary.best_validation_loss:.4f}, validation IoU "
-            f"{summary.best_validation_iou.mean:.3f} "
-            f"({summary.images_per_second:.0f} images/s on {torch_device})"
+            f"{_model_line(summary)} ({summary.images_per_second:.0f} images/s on {torch_device})"
         )
         if run.test_iou is not None:
             iou = run.test_iou
@@ -126,3 +141,19 @@ def register(app: typer.Typer) -> None:
                 f"mean {iou.mean:.3f}"
             )
         typer.echo(f"wrote {out / 'checkpoint.pt'}, {out / 'curves.png'}, {metrics_path}")
+
+
+def _model_line(summary: TrainingSummary) -> str:
+    """Which weights the checkpoint holds and how they did on validation."""
+    average = summary.weight_average
+    if average is None:
+        return (
+            f"best epoch {summary.best_epoch}/{summary.epochs_run}: validation loss "
+            f"{summary.best_validation_loss:.4f}, validation IoU "
+            f"{summary.best_validation_iou.mean:.3f}"
+        )
+    return (
+        f"weight average of epochs {average.first_epoch}-{average.last_epoch} "
+        f"({average.steps} steps): validation loss {average.validation_loss:.4f}, "
+        f"validation IoU {average.validation_iou.mean:.3f}"
+    )

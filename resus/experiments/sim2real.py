@@ -266,14 +266,9 @@ class Sim2RealSettings:
         return dataclasses.replace(preset, augmentation=augmentation)
 
     def simulation_training_preset(self) -> TrainingPreset:
-        """The simulation-only model's preset: `training_preset`, with weight averaging over
-        the last `weight_averaging_epochs` at a constant rate when that is above 0."""
-        preset = self.training_preset()
-        if not self.weight_averaging_epochs:
-            return preset
-        return dataclasses.replace(
-            preset, cosine_decay=False, weight_averaging_epochs=self.weight_averaging_epochs
-        )
+        """The simulation-only model's preset: `training_preset`, weight-averaged over the last
+        `weight_averaging_epochs` (`TrainingPreset.weight_averaged`)."""
+        return self.training_preset().weight_averaged(self.weight_averaging_epochs)
 
     def fine_tuning_epochs(self, rehearsal: bool) -> int:
         """Epochs of a fine-tuning: `fine_tune_epochs`, or with rehearsal as many as keep its

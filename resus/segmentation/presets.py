@@ -8,7 +8,7 @@ that trains at about 200 images/s on a 2-core CPU; tests and the demo use it.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import TypeVar
 
 from resus.errors import ResusError
@@ -168,6 +168,14 @@ class TrainingPreset:
         data = asdict(self)
         data["model"] = self.model.to_dict()
         return data
+
+    def weight_averaged(self, epochs: int) -> TrainingPreset:
+        """This preset with its model the weight average of the last `epochs` epochs, at a
+        constant rate (cosine decay off: a rate decayed to zero leaves little to average);
+        0: this preset unchanged."""
+        if epochs == 0:
+            return self
+        return replace(self, cosine_decay=False, weight_averaging_epochs=epochs)
 
 
 QUICK = TrainingPreset(

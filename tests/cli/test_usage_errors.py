@@ -160,6 +160,10 @@ def test_bad_value(monkeypatch, capsys, tmp_path, path):
         (["emulate", "--fault", "meltdown"], "--fault"),
         (["reconstruct", "s.h5", "--out", "v.nrrd", "--voxels", "8,8"], "--voxels: expected 3"),
         (["reconstruct", "s.h5", "--out", "v.nrrd", "--grid", "sphere"], "--grid must be one of"),
+        (
+            ["train", "--sweeps", "s", "--out", "o", "--average-epochs", "9"],
+            "--average-epochs: TrainingPreset.weight_averaging_epochs must be in [0, max_epochs",
+        ),
     ],
 )
 def test_a_refused_flag_value_is_one_line_naming_the_flag(monkeypatch, capsys, args, fragment):

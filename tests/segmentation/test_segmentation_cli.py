@@ -79,6 +79,26 @@ def test_train_command_holds_out_a_subject(files) -> None:
     assert (out / "curves.png").is_file()
 
 
+def test_train_command_keeps_a_weight_average_and_says_so(files) -> None:
+    out = files / "averaged"
+    arguments = ["train", "--sweeps", str(files / "sweeps" / "s1.h5"), "--out", str(out)]
+    result = CliRunner().invoke(
+        cli(), [*arguments, "--average-epochs", "2"], catch_exceptions=False
+    )
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    average = metrics["training"]["weight_average"]
+    epochs = metrics["training"]["epochs_run"]
+    assert metrics["average_epochs"] == 2 and epochs == 8  # the quick preset's every epoch
+    assert (average["first_epoch"], average["last_epoch"]) == (epochs - 1, epochs)
+    assert f"weight average of epochs {epochs - 1}-{epochs} ({average['steps']} steps)" in (
+        result.output
+    )
+    assert "best epoch" not in result.output
+    _, config = load_checkpoint(out / "checkpoint.pt")
+    assert config["weight_average"]["steps"] == average["steps"] > 0
+
+
 def test_train_command_refuses_imagenet_without_weights(files) -> None:
     out = files / "imagenet"
     arguments = ["train", "--sweeps", str(files / "sweeps" / "s1.h5"), "--out", str(out)]

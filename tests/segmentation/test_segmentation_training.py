@@ -158,6 +158,15 @@ def test_weight_averaging_beyond_the_run_is_refused() -> None:
         replace(QUICK, max_epochs=8, weight_averaging_epochs=9)
 
 
+def test_a_weight_averaged_preset_runs_at_a_constant_rate() -> None:
+    cosine = replace(QUICK, cosine_decay=True)
+    assert cosine.weight_averaged(0) is cosine
+    averaged = cosine.weight_averaged(3)
+    assert averaged == replace(cosine, cosine_decay=False, weight_averaging_epochs=3)
+    with pytest.raises(ResusError, match=r"weight_averaging_epochs .* got -1"):
+        cosine.weight_averaged(-1)
+
+
 def test_a_training_outcome_with_a_weight_average_survives_json(tmp_path) -> None:
     import json
 
