@@ -142,7 +142,7 @@ class Sim2RealSettings:
     model is the mean of the weights after every step of its last this many epochs
     (`TrainingPreset.weight_averaging_epochs`, `resus.segmentation.averaging`): a wider
     minimum of the simulated images' loss, which a shift to real images moves less (128 px,
-    seeds 0-2 on usgra-seg: 0.456 -> 0.481 alone, 0.486 -> 0.503 as their ensemble; notebook
+    seeds 0-3 on usgra-seg: 0.462 -> 0.478 alone, 0.499 -> 0.508 as their ensemble; notebook
     "Weight averaging"). 0: the preset's own schedule and its best epoch. The fine-tunings
     keep the preset's."""
     export_framing_p: float = 0.5
