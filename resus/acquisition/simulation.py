@@ -19,7 +19,7 @@ from resus.acquisition.trajectory import Trajectory
 from resus.errors import ResusError, simulator_errors
 from resus.sweep.model import FrameSink
 from sim.fingerprint import simulator_fingerprint
-from sim.phantom import Phantom, PhantomSpec
+from sim.phantom import Phantom, PhantomSpec, phantom_digest
 from sim.robot.scene import load_scene_phantom
 from sim.robot.scene_config import SceneConfig, load_scene_config, scene_path
 from sim.ultrasound.scanner import ScannerPreset
@@ -34,6 +34,15 @@ def resolve_scene(scene: str | Path, phantom: str | None, subject: int | None) -
         changes["phantom"] = phantom
     with simulator_errors():
         return dataclasses.replace(load_scene_config(scene_path(scene)), **changes)
+
+
+def world_key(scene: SceneConfig) -> dict[str, Any]:
+    """The simulated world a sweep is made in, as JSON values a cache compares: the scene's
+    content, not its file's name (a scene edited in place is another scene), and the digest
+    of its phantom spec's files (`phantom_digest`: an edited spec, or one it extends, is
+    another phantom)."""
+    with simulator_errors(f"phantom {scene.phantom!r}"):
+        return {"scene": scene.to_dict(), "phantom_digest": phantom_digest(scene.phantom)}
 
 
 def phantom_spec(scene: SceneConfig, seed: int | None = None) -> PhantomSpec:
@@ -80,6 +89,7 @@ def simulate_sweep(
     )
     provenance = {
         "phantom": scene.phantom,
+        "phantom_digest": world_key(scene)["phantom_digest"],
         "subject": scene.subject,
         "seed": spec.seed,
         "scanner": None if preset is None else preset.name,
@@ -97,14 +107,21 @@ def simulate_sweep(
 def simulated_truth(scene: SceneConfig, provenance: Mapping[str, object]) -> PhantomSpec:
     """The phantom a simulated Sweep was recorded from, as its `provenance` says (its seed
     included), for scoring against `scene`; a ResusError when the scene names another
-    phantom or subject than the sweep was made from, since the scores would compare
-    different anatomy."""
+    phantom or subject than the sweep was made from, or a spec whose files changed since
+    (`phantom_digest`), since the scores would compare different anatomy."""
     made_from = (provenance.get("phantom"), provenance.get("subject"))
     if "phantom" in provenance and made_from != (scene.phantom, scene.subject):
         raise ResusError(
             f"the sweep was simulated from phantom {made_from[0]!r} subject {made_from[1]} "
             f"(its provenance), not {scene.phantom!r} subject {scene.subject}: scores would "
             "compare different anatomy"
+        )
+    recorded = provenance.get("phantom_digest")
+    if recorded is not None and recorded != world_key(scene)["phantom_digest"]:
+        raise ResusError(
+            f"phantom {scene.phantom!r} is not the spec the sweep was simulated from (its "
+            f"files changed since: digest {recorded} in the provenance): scores would compare "
+            "different anatomy"
         )
     seed = provenance.get("seed")
     return phantom_spec(scene, seed if isinstance(seed, int) else None)

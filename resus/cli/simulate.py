@@ -207,21 +207,24 @@ def _simulate_many(
 
 
 def _sweep_record(job: dict, path: Path) -> UnitRecord:
-    """The record of one sweep of `--subjects`: everything the sweep depends on (a file's
-    text with its path: a plan edited in place makes a new sweep), the simulator included
-    (`sim.fingerprint`)."""
+    """The record of one sweep of `--subjects`: everything the sweep depends on (the scene
+    and phantom as `world_key` knows them, a plan file's text with its path: a file edited in
+    place makes a new sweep), the simulator included (`sim.fingerprint`)."""
+    from resus.acquisition.simulation import resolve_scene, world_key
     from resus.execution import UnitRecord
     from sim.fingerprint import simulator_fingerprint
 
-    def value(setting: object) -> object:
-        if dataclasses.is_dataclass(setting) and not isinstance(setting, type):
-            return dataclasses.asdict(setting)
-        if isinstance(setting, str) and Path(setting).is_file():
-            return {"path": setting, "text": Path(setting).read_text()}
-        return setting
-
-    names = ("scene", "phantom", "trajectory", "subject", "seed", "scanner", "rigid")
-    key = {name: value(job[name]) for name in names} | {"simulator": simulator_fingerprint()}
+    plan = job["trajectory"]  # a LinearPattern or the path of a trajectory file
+    key = {
+        **world_key(resolve_scene(job["scene"], job["phantom"], job["subject"])),
+        "trajectory": (
+            {"path": plan, "text": Path(plan).read_text()}
+            if isinstance(plan, str)
+            else dataclasses.asdict(plan)
+        ),
+        **{name: job[name] for name in ("seed", "scanner", "rigid")},
+        "simulator": simulator_fingerprint(),
+    }
     return UnitRecord(path, key, (job["out"],))
 
 

@@ -6,8 +6,9 @@ all in one folder. Scans are independent units, prepared by an executor (`resus.
 worker processes of this machine, one per core by default, or a Ray cluster.
 
 Every stage is cached: a folder's `scan.json` records the settings each stage ran with (for
-the simulation, the simulator's fingerprint too: `sim.fingerprint`), and a stage whose files
-exist and whose recorded settings equal the requested ones is skipped. The
+the simulation, the scene's content, a digest of the phantom spec's files and the simulator's
+fingerprint too: `world_key`, `sim.fingerprint`), and a stage whose files exist and whose
+recorded settings equal the requested ones is skipped. The
 record is written only after a stage finishes, so a crashed or interrupted stage runs again.
 """
 
@@ -176,9 +177,11 @@ def _prepare_in_worker(job: tuple[Path, Scan, ScanSettings]) -> None:
 
 def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:
     """What each stage of `scan` depends on, as JSON values (the cache key of each stage)."""
+    from resus.acquisition.simulation import resolve_scene, world_key
+
+    scene = resolve_scene(settings.scene, settings.phantom, scan.subject)
     stages = {
-        "simulate": {"scene": settings.scene, "phantom": settings.phantom,
-                     "scanner": settings.scanner, "subject": scan.subject,
+        "simulate": {**world_key(scene), "scanner": settings.scanner,
                      "sweep": dataclasses.asdict(scan.sweep or settings.sweep),
                      "cols": settings.cols, "rows": settings.rows,
                      "simulator": simulator_fingerprint()},

@@ -602,8 +602,9 @@ def few_label_curve(
 
 
 def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dict:
-    """What a sweep of the experiment must have been made from to be reused: the phantom,
-    subject, seed, scanner, the subject's sweep pattern and force (where and how it was
+    """What a sweep of the experiment must have been made from to be reused: the phantom (and
+    the digest of its spec's files: one edited in place is another phantom), subject, seed,
+    scanner, the subject's sweep pattern and force (where and how it was
     scanned), whether its tissue deformed, and the simulator that made it (its fingerprint:
     a preset's name stays when its knobs change)."""
     return _subject_scan(settings, subject, seed)[0]
@@ -614,7 +615,7 @@ def _subject_scan(
 ) -> tuple[dict, ScannerPreset | None]:
     """A subject's sweep provenance (`sweep_provenance`) and the scanner preset that makes
     it, from one draw of the subject's phantom."""
-    from resus.acquisition.simulation import phantom_spec, resolve_scene
+    from resus.acquisition.simulation import phantom_spec, resolve_scene, world_key
     from sim.phantom import Phantom
 
     scene = resolve_scene("default", settings.phantom, subject)
@@ -623,6 +624,7 @@ def _subject_scan(
     path = subject_sweep(settings, subject, seed).trajectory(Phantom(spec), scene.phantom_to_base)
     provenance = {
         "phantom": settings.phantom,
+        "phantom_digest": world_key(scene)["phantom_digest"],
         "subject": subject,
         "seed": spec.seed,
         "scanner": None if preset is None else preset.name,

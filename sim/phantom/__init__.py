@@ -7,7 +7,7 @@ meshes in the phantom frame (metres; +z out of the skin, +y distal, +x the patie
 
 from sim.labels import ARTERY, LABEL_NAMES, VEIN
 from sim.phantom.anatomy import FemoralAnatomy
-from sim.phantom.loader import load_phantom
+from sim.phantom.loader import load_phantom, phantom_digest
 from sim.phantom.phantom import VESSEL_SEARCH_RADIUS, Phantom, TissueSample
 from sim.phantom.spec import BodySpec, Layer, Material, PhantomSpec, Variation, VesselSpec
 from sim.phantom.subjects import make_subject
@@ -28,4 +28,5 @@ __all__ = [
     "VesselSpec",
     "load_phantom",
     "make_subject",
+    "phantom_digest",
 ]

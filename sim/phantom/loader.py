@@ -14,6 +14,7 @@ one ValueError naming the file.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 from pathlib import Path
 from typing import Any
@@ -218,17 +219,29 @@ def spec_from_mapping(data: Any) -> PhantomSpec:
 def load_phantom(name_or_path: str | Path) -> PhantomSpec:
     """Load `default`, `leg` (from assets/phantoms) or a YAML file by path."""
     path = _resolve(name_or_path)
-    data = _read_spec(path, ())
+    data, _ = _read_spec(path, ())
     try:
         return spec_from_mapping(data)
     except (ValueError, TypeError) as error:
         raise ValueError(f"{path}: {error}") from error
 
 
-def _read_spec(path: Path, seen: tuple[Path, ...]) -> Any:
-    """The spec's YAML mapping; `extends: NAME` (a named spec or a path) starts from that
-    spec's mapping, this file's keys laid over it (mappings merged key by key, anything else
-    replaced): a variant says only what it changes."""
+def phantom_digest(name_or_path: str | Path) -> str:
+    """16 hex digits of a SHA-256 over the texts a spec is read from: its file and every spec
+    it `extends`. A cache of simulated data keys on it, since a spec file edited in place keeps
+    its name (the named specs are also in `simulator_fingerprint`)."""
+    _, sources = _read_spec(_resolve(name_or_path), ())
+    digest = hashlib.sha256()
+    for path in sources:
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _read_spec(path: Path, seen: tuple[Path, ...]) -> tuple[Any, tuple[Path, ...]]:
+    """The spec's YAML mapping and the files it was read from (this one first); `extends:
+    NAME` (a named spec or a path) starts from that spec's mapping, this file's keys laid over
+    it (mappings merged key by key, anything else replaced): a variant says only what it
+    changes."""
     if path.resolve() in seen:
         raise ValueError(f"{path}: `extends` loops back to {seen[0]}")
     try:
@@ -237,10 +250,10 @@ def _read_spec(path: Path, seen: tuple[Path, ...]) -> Any:
         first_line = str(error).splitlines()[0] if str(error) else "parse error"
         raise ValueError(f"{path}: not valid YAML ({first_line})") from error
     if not isinstance(data, dict) or "extends" not in data:
-        return data
+        return data, (path,)
     changes = {key: value for key, value in data.items() if key != "extends"}
-    base = _read_spec(_resolve(str(data["extends"])), (*seen, path.resolve()))
-    return _laid_over(base, changes)
+    base, sources = _read_spec(_resolve(str(data["extends"])), (*seen, path.resolve()))
+    return _laid_over(base, changes), (path, *sources)
 
 
 def _laid_over(base: Any, changes: Any) -> Any:

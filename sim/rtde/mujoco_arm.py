@@ -10,21 +10,11 @@ simulation.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-from sim.assets import assets_dir
-from sim.robot.scene_config import SceneConfig, load_scene_config
+from sim.robot.scene_config import SceneConfig, load_scene_config, scene_path
 from sim.robot.ur3e import CONTROL_PERIOD, SimulatedUR3e
 from sim.rtde.arm import ForceModeCommand
-
-
-def scene_path(scene: str) -> Path:
-    """A scene file: a path, or a name in `assets/scenes/` ("default")."""
-    if scene.endswith((".yaml", ".yml")) or "/" in scene:
-        return Path(scene)
-    return assets_dir() / "scenes" / f"{scene}.yaml"
 
 
 class MujocoArm:

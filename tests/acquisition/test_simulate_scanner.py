@@ -1,14 +1,18 @@
-"""`resus simulate --scanner`: the preset's geometry and look reach the Sweep file."""
+"""`resus simulate`: a scanner preset reaches the Sweep file; what a `--subjects` rerun keeps."""
 
 from __future__ import annotations
 
 import json
 
 import numpy as np
+import pytest
 from cli_runner import run_main
 
+from resus.acquisition.simulation import resolve_scene, simulated_truth
+from resus.errors import ResusError
 from resus.sweep.io import read_sweep
 from sim.fingerprint import simulator_fingerprint
+from sim.phantom import phantom_digest
 from sim.ultrasound.scanner import PRESETS
 
 SHORT = ("--length", "0.006", "--speed", "0.02", "--frame-rate", "10", "--force", "0")
@@ -53,3 +57,26 @@ def test_random_scanner_draws_one_preset_per_subject(monkeypatch, capsys, tmp_pa
     status, printed, _ = run_main(monkeypatch, capsys, *args, "--scanner", "random", *SHORT)
     assert status == 0 and printed.count("kept ") == 1 and printed.count("wrote ") == 1
     assert f"kept {out / 'subject_00.h5'}" in printed
+
+
+def test_a_phantom_file_edited_in_place_makes_its_sweeps_again(monkeypatch, capsys, tmp_path):
+    """A spec file keeps its name when edited: the sweep records its digest, the rerun makes
+    the sweep again, and the old sweep is not scored against the new anatomy."""
+    spec, out = tmp_path / "phantom.yaml", tmp_path / "subjects"
+    spec.write_text("extends: default\nnoise_level: 0.2\n")
+    out.mkdir()
+    args = ("simulate", "--out", str(out), "--subjects", "0", "--phantom", str(spec), *SHORT)
+    assert run_main(monkeypatch, capsys, *args)[0] == 0
+    status, printed, _ = run_main(monkeypatch, capsys, *args)
+    assert status == 0 and printed.startswith("kept ")
+    scene = resolve_scene("default", str(spec), 0)
+    made_from = read_sweep(out / "subject_00.h5").provenance
+    assert made_from["phantom_digest"] == phantom_digest(spec)
+    simulated_truth(scene, made_from)  # the same spec: scored
+
+    spec.write_text("extends: default\nnoise_level: 0.6\n")  # the same name, another phantom
+    with pytest.raises(ResusError, match="is not the spec the sweep was simulated from"):
+        simulated_truth(scene, made_from)
+    status, printed, _ = run_main(monkeypatch, capsys, *args)
+    assert status == 0 and printed.startswith("wrote ")
+    assert read_sweep(out / "subject_00.h5").provenance["phantom_digest"] == phantom_digest(spec)

@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 import pytest
 import yaml
 from sim.assets import assets_dir
 
-from sim.phantom import ARTERY, VEIN, Phantom, PhantomSpec, load_phantom, make_subject
+from sim.phantom import (
+    ARTERY,
+    VEIN,
+    Phantom,
+    PhantomSpec,
+    load_phantom,
+    make_subject,
+    phantom_digest,
+)
 from sim.phantom.loader import phantoms_dir
 
 
@@ -73,6 +83,25 @@ def test_extends_loops_and_unknown_bases_name_the_file(tmp_path) -> None:
     first.write_text("extends: nowhere\nname: a\n")
     with pytest.raises(ValueError, match="unknown phantom 'nowhere'"):
         load_phantom(first)
+
+
+def test_the_digest_covers_the_spec_file_and_every_spec_it_extends(tmp_path) -> None:
+    base, variant = tmp_path / "base.yaml", tmp_path / "variant.yaml"
+    base.write_text("extends: femoral\nnoise_level: 0.3\n")
+    variant.write_text(f"extends: {base}\nname: variant\n")
+    texts = [
+        variant.read_bytes(),
+        base.read_bytes(),
+        (phantoms_dir() / "femoral.yaml").read_bytes(),
+    ]
+    assert phantom_digest(variant) == hashlib.sha256(b"".join(texts)).hexdigest()[:16]
+    assert phantom_digest("femoral") == hashlib.sha256(texts[2]).hexdigest()[:16]
+
+    before = phantom_digest(variant)
+    base.write_text("extends: femoral\nnoise_level: 0.4\n")  # edited in place, same names
+    assert phantom_digest(variant) != before
+    (tmp_path / "copy.yaml").write_text(variant.read_text())
+    assert phantom_digest(tmp_path / "copy.yaml") == phantom_digest(variant)  # content, not path
 
 
 def test_deep_femoral_artery_branches_deeper_and_lateral() -> None:
