@@ -19,9 +19,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from sim.assets import assets_dir
+from sim.assets import assets_dir, named_or_path
 from sim.phantom.anatomy import (
     FemoralAnatomy,
     FemoralNerve,
@@ -44,6 +42,7 @@ from sim.phantom.spec import (
     Variation,
     VesselSpec,
 )
+from sim.yaml_file import read_yaml_file
 
 SCALE_KEYS = ("layer_thickness_scale", "echogenicity_scale", "noise_level")
 """Variation keys that are not anatomy parameters."""
@@ -65,17 +64,15 @@ def phantoms_dir() -> Path:
 
 
 def _resolve(name_or_path: str | Path) -> Path:
-    text = str(name_or_path)
-    if isinstance(name_or_path, Path) or text.endswith((".yaml", ".yml")) or "/" in text:
-        path = Path(name_or_path)
-        if not path.is_file():
-            raise ValueError(f"{path}: phantom spec file not found")
+    path, named = named_or_path("phantoms", name_or_path)
+    if path.is_file():
         return path
-    path = phantoms_dir() / f"{text}.yaml"
-    if not path.is_file():
-        known = sorted(p.stem for p in phantoms_dir().glob("*.yaml"))
-        raise ValueError(f"unknown phantom {text!r}; known: {', '.join(known)} (or a YAML path)")
-    return path
+    if not named:
+        raise ValueError(f"{path}: phantom spec file not found")
+    known = sorted(p.stem for p in phantoms_dir().glob("*.yaml"))
+    raise ValueError(
+        f"unknown phantom {str(name_or_path)!r}; known: {', '.join(known)} (or a YAML path)"
+    )
 
 
 def _mapping(value: Any, what: str, allowed: tuple[str, ...] | set[str]) -> dict:
@@ -244,11 +241,7 @@ def _read_spec(path: Path, seen: tuple[Path, ...]) -> tuple[Any, tuple[Path, ...
     changes."""
     if path.resolve() in seen:
         raise ValueError(f"{path}: `extends` loops back to {seen[0]}")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as error:
-        first_line = str(error).splitlines()[0] if str(error) else "parse error"
-        raise ValueError(f"{path}: not valid YAML ({first_line})") from error
+    data = read_yaml_file(path, "phantom spec")
     if not isinstance(data, dict) or "extends" not in data:
         return data, (path,)
     changes = {key: value for key, value in data.items() if key != "extends"}

@@ -24,18 +24,16 @@ import numpy as np
 import yaml
 from scipy.spatial.transform import Rotation
 
-from sim.assets import assets_dir
+from sim.assets import named_or_path
 from sim.transforms import is_rigid, make_pose
+from sim.yaml_file import read_yaml_file
 
 LEG_SIDES = ("right", "left")
 
 
 def scene_path(scene: str | Path) -> Path:
     """A scene file: a path (it has a suffix or a folder), or a name in `assets/scenes/`."""
-    path = Path(scene)
-    if path.suffix or len(path.parts) > 1:
-        return path
-    return assets_dir() / "scenes" / f"{scene}.yaml"
+    return named_or_path("scenes", scene)[0]
 
 
 def default_scene_path() -> Path:
@@ -137,14 +135,7 @@ def _pose_from_yaml(value: object) -> np.ndarray:
 def load_scene_config(path: str | Path | None = None) -> SceneConfig:
     """Read a scene YAML file (the default scene when `path` is None)."""
     path = default_scene_path() if path is None else Path(path)
-    if not path.is_file():
-        raise ValueError(f"{path}: scene file not found")
-    with path.open() as stream:
-        try:
-            data = yaml.safe_load(stream)
-        except yaml.YAMLError as error:
-            raise ValueError(f"{path}: not valid YAML ({error})") from None
-    return SceneConfig.from_dict(data, source=str(path))
+    return SceneConfig.from_dict(read_yaml_file(path, "scene"), source=str(path))
 
 
 def save_scene_config(config: SceneConfig, path: str | Path) -> None:
