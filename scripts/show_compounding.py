@@ -24,7 +24,7 @@ from figure_output import outlined_bmode, save_figure
 
 from sim.phantom import Phantom, load_phantom
 from sim.ultrasound.deformation import TissueLoad
-from sim.ultrasound.scanner import PRESETS
+from sim.ultrasound.scanner import scanner_preset
 from sim.ultrasound.simulator import UltrasoundSimulator
 from sim.ultrasound.skin_pose import probe_pose_on_skin
 
@@ -37,10 +37,10 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("docs/compounding.png"))
     args = parser.parse_args()
     phantom = Phantom(load_phantom("femoral"))
-    vascular = PRESETS["vascular"]
+    vascular = scanner_preset("vascular")
     columns = {
         "vascular": vascular.settings(),
-        "vascular-compound": PRESETS["vascular-compound"].settings(),
+        "vascular-compound": scanner_preset("vascular-compound").settings(),
         "5 frames, +-20 deg": dataclasses.replace(
             vascular.settings(), compound_frames=5, compound_angle=0.35
         ),

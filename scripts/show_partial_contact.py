@@ -20,7 +20,7 @@ from figure_output import outlined_bmode, save_figure
 
 from sim.phantom import Phantom, load_phantom
 from sim.ultrasound.deformation import TissueLoad
-from sim.ultrasound.scanner import PRESETS
+from sim.ultrasound.scanner import scanner_preset
 from sim.ultrasound.simulator import UltrasoundSimulator
 from sim.ultrasound.skin_pose import probe_pose_on_skin
 
@@ -30,7 +30,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("docs/partial_contact.png"))
     args = parser.parse_args()
     phantom = Phantom(load_phantom("femoral"))
-    vascular = PRESETS["vascular"]
+    vascular = scanner_preset("vascular")
     lifted = dataclasses.replace(vascular.settings(), lost_coupling=(0.25, 0.0))
     resting = probe_pose_on_skin(phantom, 0.0, 0.0)
     pressed = resting.copy()

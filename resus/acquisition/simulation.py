@@ -93,6 +93,7 @@ def simulate_sweep(
         "subject": scene.subject,
         "seed": spec.seed,
         "scanner": None if preset is None else preset.name,
+        "scanner_knobs": None if preset is None else preset.to_dict(),
         "dynamic_range_db": probe_config.settings.dynamic_range_db,
         "pattern": trajectory.pattern,
         "contact_force": trajectory.contact_force,

@@ -53,7 +53,8 @@ ExperimentPhantomOption = Annotated[
 ExperimentScannerOption = Annotated[
     str | None,
     typer.Option(
-        help="Scanner preset imaging every sweep (default: the simulator's own settings)."
+        help="Scanner preset (a name or a YAML file) imaging every sweep (default: the "
+        "simulator's own settings)."
     ),
 ]
 SeedsOption = Annotated[

@@ -91,8 +91,8 @@ def simulate(
         str | None,
         typer.Option(
             help="Scanner preset: vascular, vascular-compound, vascular-deep, nerve, classic, "
-            "random-N, or random "
-            "(one per sweep); default: the simulator's own settings."
+            "random-N, random (one per sweep), or a preset YAML file; default: the "
+            "simulator's own settings."
         ),
     ] = None,
     rigid: Annotated[
@@ -215,6 +215,7 @@ def _sweep_record(job: dict, path: Path) -> UnitRecord:
     from sim.fingerprint import simulator_fingerprint
 
     plan = job["trajectory"]  # a LinearPattern or the path of a trajectory file
+    preset = sweep_scanner(job["scanner"], job["seed"], job["subject"])
     key = {
         **world_key(resolve_scene(job["scene"], job["phantom"], job["subject"])),
         "trajectory": (
@@ -222,7 +223,8 @@ def _sweep_record(job: dict, path: Path) -> UnitRecord:
             if isinstance(plan, str)
             else dataclasses.asdict(plan)
         ),
-        **{name: job[name] for name in ("seed", "scanner", "rigid")},
+        **{name: job[name] for name in ("seed", "rigid")},
+        "scanner": None if preset is None else preset.to_dict(),
         "simulator": simulator_fingerprint(),
     }
     return UnitRecord(path, key, (job["out"],))

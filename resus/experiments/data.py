@@ -28,7 +28,7 @@ from resus.reslicing.reslice import ResliceSettings
 from sim.fingerprint import simulator_fingerprint
 from sim.labels import LABEL_NAMES
 from sim.phantom.loader import load_phantom
-from sim.ultrasound.scanner import scanner_preset
+from sim.ultrasound.scanner import ScannerPreset, scanner_preset
 
 GRIDS = ("ransac", "aabb")
 RECORD = "scan.json"
@@ -44,8 +44,9 @@ class ScanSettings:
     """Phantom spec name or YAML path scanned in the scene instead of its own (None: the
     scene's)."""
     scanner: str | None = None
-    """Scanner preset name (`sim.ultrasound.scanner.scanner_preset`) imaging every scan at its
-    frequency, depth and image settings; None: the simulator's own settings."""
+    """Scanner preset name or YAML file (`sim.ultrasound.scanner.scanner_preset`) imaging
+    every scan at its frequency, depth and image settings; None: the simulator's own
+    settings."""
     cols: int = 256
     """Probe image width (pixels)."""
     rows: int = 256
@@ -77,6 +78,11 @@ class ScanSettings:
             raise ResusError(
                 f"ScanSettings.cols and rows must be at least 2, got {self.cols} x {self.rows}"
             )
+
+    @property
+    def preset(self) -> ScannerPreset | None:
+        """`scanner` as a preset (None: the simulator's own settings)."""
+        return None if self.scanner is None else scanner_preset(self.scanner)
 
     def to_dict(self) -> dict:
         """JSON-able form (tuples become lists)."""
@@ -180,8 +186,9 @@ def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:
     from resus.acquisition.simulation import resolve_scene, world_key
 
     scene = resolve_scene(settings.scene, settings.phantom, scan.subject)
+    preset = settings.preset
     stages = {
-        "simulate": {**world_key(scene), "scanner": settings.scanner,
+        "simulate": {**world_key(scene), "scanner": None if preset is None else preset.to_dict(),
                      "sweep": dataclasses.asdict(scan.sweep or settings.sweep),
                      "cols": settings.cols, "rows": settings.rows,
                      "simulator": simulator_fingerprint()},
@@ -253,8 +260,7 @@ def _simulate(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
         probe=LinearProbe(cols=settings.cols, rows=settings.rows), frame_rate=sweep.frame_rate
     )
     scene = resolve_scene(settings.scene, settings.phantom, scan.subject)
-    preset = None if settings.scanner is None else scanner_preset(settings.scanner)
-    simulate_sweep(data.sweep, scene, sweep, probe=probe, preset=preset, progress=False)
+    simulate_sweep(data.sweep, scene, sweep, probe=probe, preset=settings.preset, progress=False)
 
 
 def _reconstruct(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:

@@ -96,7 +96,8 @@ class Sim2RealSettings:
     """Segmentation training preset (`resus.segmentation.presets`) of every model."""
     phantom: str = "femoral"
     scanner: str = "random"
-    """Scanner preset of every sweep (`random`: one drawn per subject)."""
+    """Scanner preset of every sweep: a name, a YAML file (`scanner_preset`), or `random`, one
+    drawn per subject."""
     sweep: LinearPattern = field(
         default_factory=lambda: LinearPattern(start=(0.0, -0.04), length=0.06)
     )
@@ -604,9 +605,9 @@ def few_label_curve(
 def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dict:
     """What a sweep of the experiment must have been made from to be reused: the phantom (and
     the digest of its spec's files: one edited in place is another phantom), subject, seed,
-    scanner, the subject's sweep pattern and force (where and how it was
-    scanned), whether its tissue deformed, and the simulator that made it (its fingerprint:
-    a preset's name stays when its knobs change)."""
+    scanner preset (its name and every knob: a preset file edited in place keeps its name),
+    the subject's sweep pattern and force (where and how it was scanned), whether its tissue
+    deformed, and the simulator that made it (its fingerprint)."""
     return _subject_scan(settings, subject, seed)[0]
 
 
@@ -628,6 +629,7 @@ def _subject_scan(
         "subject": subject,
         "seed": spec.seed,
         "scanner": None if preset is None else preset.name,
+        "scanner_knobs": None if preset is None else preset.to_dict(),
         "pattern": json.loads(json.dumps(path.pattern)),
         "contact_force": path.contact_force,
         "deformation": spec.mechanics is not None,

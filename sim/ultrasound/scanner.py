@@ -7,20 +7,30 @@ its physics with it: the pulse shortens (axial resolution ~ c / bandwidth), the 
 (lateral FWHM ~ lambda times the F-number), so speckle grows finer, and attenuation in dB
 grows with it.
 
-`random_preset(seed)` draws every knob from the ranges clinical linear-array presets span, so
-a training set simulated under many presets does not teach a network one machine's look.
+The named presets are YAML files in `assets/scanners/`, each giving only the knobs that differ
+from `ScannerPreset`'s defaults; a file of one's own (`scanner_preset("my-machine.yaml")`)
+describes another machine the same way. `random_preset(seed)` draws every knob from the
+ranges clinical linear-array presets span, so a training set simulated under many presets
+does not teach a network one machine's look.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
+import math
 from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from sim.assets import assets_dir, named_or_path
 from sim.ultrasound.probe import LinearProbe
 from sim.ultrasound.scatterers import mix_seed
 from sim.ultrasound.settings import UltrasoundSettings
+from sim.yaml_file import read_yaml_file
 
 LATERAL_FWHM_PER_WAVELENGTH_F_NUMBER = 1.02
 """Lateral -6 dB beam width at the focus of a rectangular aperture, in wavelengths times the
@@ -112,6 +122,11 @@ class ScannerPreset:
         """Lateral FWHM at the focus (m)."""
         return LATERAL_FWHM_PER_WAVELENGTH_F_NUMBER * self.wavelength * self.f_number
 
+    def to_dict(self) -> dict[str, Any]:
+        """Every knob as JSON values: what a sweep's provenance and the caches of simulated
+        data record, since a preset file edited in place keeps its name."""
+        return json.loads(json.dumps(dataclasses.asdict(self)))
+
     def at_depth(self, depth: float) -> ScannerPreset:
         """This preset with the displayed depth set to `depth` (m), the focus kept at the same
         fraction of it: what a sonographer does to frame the target."""
@@ -154,50 +169,70 @@ class ScannerPreset:
         )
 
 
-PRESETS: dict[str, ScannerPreset] = {
-    preset.name: preset
-    for preset in (
-        ScannerPreset(),
-        ScannerPreset(name="vascular-compound", compound_frames=3, compound_angle=0.17),
-        ScannerPreset(
-            name="vascular-deep",
-            centre_frequency=7.0e6,
-            depth=0.060,
-            focal_depth=0.030,
-            gain_db=28.0,
-            dynamic_range_db=66.0,
-            grey_gamma=1.3,
-        ),
-        ScannerPreset(
-            name="nerve",
-            centre_frequency=13.0e6,
-            depth=0.030,
-            focal_depth=0.015,
-            gain_db=24.0,
-            dynamic_range_db=54.0,
-            grey_gamma=1.6,
-            clutter_db=-12.0,
-        ),
-        ScannerPreset(
-            name="classic",
-            centre_frequency=7.5e6,
-            depth=0.050,
-            focal_depth=0.025,
-            f_number=2.6,
-            fractional_bandwidth=0.6,
-            gain_db=32.0,
-            dynamic_range_db=50.0,
-            grey_gamma=1.0,
-            speckle_smoothing=0.0,
-            clutter_db=None,
-            reverberation=0.0,
-            persistence=0.0,
-        ),
-    )
-}
-"""Named presets. `vascular` (the default) is a modern vascular preset; `vascular-compound`
-the same with spatial compounding (three frames, +-10 degrees); `classic` is the simulator's
-look before presets existed (bright, high contrast, black lumens)."""
+def scanners_dir() -> Path:
+    """Where the named presets live, one YAML file each: `vascular` (the default, a modern
+    vascular preset), `vascular-compound` (the same with spatial compounding, three frames,
+    +-10 degrees), `vascular-deep`, `nerve`, and `classic` (the simulator's look before
+    presets existed: bright, high contrast, black lumens)."""
+    return assets_dir() / "scanners"
+
+
+@cache
+def named_presets() -> dict[str, ScannerPreset]:
+    """The named presets (`scanners_dir`), by name."""
+    return {path.stem: load_scanner_preset(path) for path in sorted(scanners_dir().glob("*.yaml"))}
+
+
+def load_scanner_preset(path: str | Path) -> ScannerPreset:
+    """A preset from a YAML file: a mapping of `ScannerPreset`'s knobs, each optional (its
+    default where absent), named by the file's stem. Every problem is one ValueError naming
+    the file."""
+    path = Path(path)
+    data = read_yaml_file(path, "scanner preset")
+    data = {} if data is None else data  # an empty file: the defaults
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: a scanner preset is a mapping of knobs, got {data!r}")
+    knobs = {field.name: field for field in dataclasses.fields(ScannerPreset)}
+    del knobs["name"]
+    unknown = sorted(set(data) - set(knobs), key=str)
+    if unknown:
+        raise ValueError(
+            f"{path}: unknown knob(s) {', '.join(map(str, unknown))}; known: {', '.join(knobs)}"
+        )
+    try:
+        values = {key: _knob(knobs[key].type, value) for key, value in data.items()}
+        return ScannerPreset(name=path.stem, **values)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{path}: {error}") from None
+
+
+def _knob(kind: object, value: object) -> Any:
+    """A YAML value as a knob of the annotated `kind` (`ScannerPreset`'s field types, which
+    are strings under postponed annotations): a number, a list of numbers, or null."""
+    if value is None and "None" in str(kind):
+        return None
+    if str(kind).startswith("tuple"):
+        if not isinstance(value, list):
+            raise ValueError(f"expected a list of numbers, got {value!r}")
+        return tuple(_number(item) for item in value)
+    if kind == "int":
+        if not (isinstance(value, int) and not isinstance(value, bool)):
+            raise ValueError(f"expected a whole number, got {value!r}")
+        return value
+    return _number(value)
+
+
+def _number(value: object) -> float:
+    """A finite number; text such as `7.5e6` too, which YAML 1.1 (PyYAML) reads as a string
+    (its floats need a dot and a signed exponent: `7.5e+6`)."""
+    try:
+        number = float(value) if isinstance(value, int | float | str) else math.nan
+    except ValueError:
+        number = math.nan
+    if isinstance(value, bool) or not math.isfinite(number):
+        raise ValueError(f"expected a finite number, got {value!r}")
+    return number
+
 
 RANDOM_RANGES: dict[str, tuple[float, float]] = {
     "centre_frequency": (6.0e6, 14.0e6),
@@ -328,15 +363,21 @@ def random_preset(seed: int) -> ScannerPreset:
     )
 
 
-def scanner_preset(name: str) -> ScannerPreset:
-    """A named preset, or `random-N` for `random_preset(N)`."""
-    if name in PRESETS:
-        return PRESETS[name]
-    prefix, _, number = name.partition("-")
+def scanner_preset(name: str | Path) -> ScannerPreset:
+    """A named preset (`scanners_dir`), `random-N` for `random_preset(N)`, or a YAML file
+    (`load_scanner_preset`; a path has a suffix or a folder)."""
+    path, named = named_or_path("scanners", name)
+    if not named:
+        return load_scanner_preset(path)
+    presets = named_presets()
+    if name in presets:
+        return presets[str(name)]
+    prefix, _, number = str(name).partition("-")
     if prefix == "random" and number.isdigit():
         return random_preset(int(number))
     raise ValueError(
-        f"unknown scanner preset {name!r}; choose one of {', '.join(PRESETS)} or random-N"
+        f"unknown scanner preset {name!r}; choose one of {', '.join(presets)}, random-N "
+        "or a YAML file"
     )
 
 

@@ -13,7 +13,7 @@ from resus.errors import ResusError
 from resus.sweep.io import read_sweep
 from sim.fingerprint import simulator_fingerprint
 from sim.phantom import phantom_digest
-from sim.ultrasound.scanner import PRESETS
+from sim.ultrasound.scanner import scanner_preset
 
 SHORT = ("--length", "0.006", "--speed", "0.02", "--frame-rate", "10", "--force", "0")
 
@@ -28,7 +28,7 @@ def test_a_preset_sets_the_recorded_pixel_spacing_and_darkens_the_frames(
     )[0]
     assert status == 0
     plain_sweep, nerve_sweep = read_sweep(plain), read_sweep(nerve)
-    preset = PRESETS["nerve"]
+    preset = scanner_preset("nerve")
     rows = nerve_sweep.frames.shape[1]
     # image_to_probe's second column is the step from one row to the next, in metres
     np.testing.assert_allclose(
@@ -80,3 +80,20 @@ def test_a_phantom_file_edited_in_place_makes_its_sweeps_again(monkeypatch, caps
     status, printed, _ = run_main(monkeypatch, capsys, *args)
     assert status == 0 and printed.startswith("wrote ")
     assert read_sweep(out / "subject_00.h5").provenance["phantom_digest"] == phantom_digest(spec)
+
+
+def test_a_scanner_file_is_a_preset_and_an_edited_one_another(monkeypatch, capsys, tmp_path):
+    machine, out = tmp_path / "machine.yaml", tmp_path / "subjects"
+    machine.write_text("depth: 0.03\nfocal_depth: 0.015\n")
+    out.mkdir()
+    args = ("simulate", "--out", str(out), "--subjects", "0", "--scanner", str(machine), *SHORT)
+    assert run_main(monkeypatch, capsys, *args)[0] == 0
+    sweep = read_sweep(out / "subject_00.h5")
+    assert sweep.provenance["scanner"] == "machine"
+    assert sweep.provenance["scanner_knobs"] == scanner_preset(str(machine)).to_dict()
+    rows = sweep.frames.shape[1]
+    np.testing.assert_allclose(np.linalg.norm(sweep.image_to_probe[:3, 1]), 0.03 / rows)
+    machine.write_text("depth: 0.03\nfocal_depth: 0.015\ngain_db: 31\n")
+    status, printed, _ = run_main(monkeypatch, capsys, *args)
+    assert status == 0 and printed.startswith("wrote ")
+    assert read_sweep(out / "subject_00.h5").provenance["scanner_knobs"]["gain_db"] == 31.0

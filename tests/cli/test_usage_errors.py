@@ -155,6 +155,10 @@ def test_bad_value(monkeypatch, capsys, tmp_path, path):
         (["calibrate-time", "s.h5", "--range", "0.5:-0.5"], "--range: expected LOW:HIGH"),
         (["simulate", "--out", "o", "--subjects", "3-1"], "--subjects: expected e.g. 3"),
         (["simulate", "--out", "o.h5", "--scanner", "vascullar"], "--scanner: unknown scanner"),
+        (
+            ["simulate", "--out", "o.h5", "--scanner", "no/such.yaml"],
+            "--scanner: no/such.yaml: scanner preset file not found",
+        ),
         (["plan", "--out", "p.yaml", "--pattern", "spiral"], "--pattern must be one of linear"),
         (["emulate", "--arm", "hydraulic"], "--arm must be one of mujoco, kinematic"),
         (["emulate", "--fault", "meltdown"], "--fault"),

@@ -76,13 +76,14 @@ def test_a_scan_another_simulator_made_is_made_again(tmp_path):
     assert json.loads(record_path.read_text())["simulate"]["simulator"] == simulator_fingerprint()
 
 
-def test_scene_and_phantom_files_edited_in_place_are_simulated_again(tmp_path):
+def test_scene_phantom_and_scanner_files_edited_in_place_are_simulated_again(tmp_path):
     """Files keep their names when edited: the cache keys on what they say."""
-    spec, scene = tmp_path / "phantom.yaml", tmp_path / "scene.yaml"
+    spec, scene, scanner = (tmp_path / name for name in ("phantom.yaml", "scene.yaml", "m.yaml"))
     spec.write_text("extends: default\nnoise_level: 0.2\n")
     scene_text = (assets_dir() / "scenes" / "default.yaml").read_text()
     scene.write_text(scene_text.replace("phantom: default", f"phantom: {spec}"))
-    settings = dataclasses.replace(SETTINGS, scene=str(scene))
+    scanner.write_text("gain_db: 25.0\n")
+    settings = dataclasses.replace(SETTINGS, scene=str(scene), scanner=str(scanner))
     (first,) = prepare_subjects(tmp_path / "data", [0], settings, jobs=1, progress=False)
     before = modified(first)
     (again,) = prepare_subjects(tmp_path / "data", [0], settings, jobs=1, progress=False)
@@ -91,6 +92,7 @@ def test_scene_and_phantom_files_edited_in_place_are_simulated_again(tmp_path):
     for path, old, new in [
         (spec, "noise_level: 0.2", "noise_level: 0.6"),  # the phantom the scene names
         (scene, "xyz: [-0.30, -0.13, 0.06]", "xyz: [-0.30, -0.125, 0.06]"),  # its pose
+        (scanner, "gain_db: 25.0", "gain_db: 30.0"),
     ]:
         path.write_text(path.read_text().replace(old, new))
         (edited,) = prepare_subjects(tmp_path / "data", [0], settings, jobs=1, progress=False)

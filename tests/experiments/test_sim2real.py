@@ -45,7 +45,7 @@ from resus.segmentation.folders import read_folders
 from resus.segmentation.trained_model import load_model
 from resus.sweep.io import SweepReader, read_sweep
 from sim.fingerprint import simulator_fingerprint
-from sim.phantom import VesselSpec, load_phantom
+from sim.phantom import VesselSpec, load_phantom, phantom_digest
 from sim.ultrasound.scanner import RANDOM_RANGES, sweep_preset
 
 TINY = Sim2RealSettings(
@@ -520,6 +520,21 @@ def test_a_sweep_is_reused_only_from_the_same_phantom_subject_seed_scanner_and_s
     assert made["simulator"] == simulator_fingerprint()  # made by this simulator
     moved = dataclasses.replace(TINY, sweep_offset=0.0)
     assert sweep_provenance(moved, 1, 3)["pattern"] != made["pattern"]
+
+
+def test_phantom_and_scanner_files_edited_in_place_are_other_sweeps(tmp_path):
+    spec, scanner = tmp_path / "thigh.yaml", tmp_path / "machine.yaml"
+    spec.write_text("extends: femoral\n")
+    scanner.write_text("gain_db: 30\n")
+    from_files = dataclasses.replace(TINY, phantom=str(spec), scanner=str(scanner))
+    made = sweep_provenance(from_files, 1, 3)
+    assert made["phantom_digest"] == phantom_digest(spec)
+    assert made["scanner"].startswith("machine") and made["scanner_knobs"]["gain_db"] == 30.0
+    spec.write_text("extends: femoral\nnoise_level: 0.3\n")
+    edited = sweep_provenance(from_files, 1, 3)
+    assert edited["phantom_digest"] != made["phantom_digest"]
+    scanner.write_text("gain_db: 36\n")
+    assert sweep_provenance(from_files, 1, 3)["scanner_knobs"]["gain_db"] == 36.0
 
 
 def test_cli_names_a_bad_training_preset(monkeypatch, capsys, tmp_path):

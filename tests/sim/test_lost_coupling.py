@@ -13,7 +13,7 @@ from sim.phantom import Phantom, load_phantom
 from sim.ultrasound.beam import aperture_coupling
 from sim.ultrasound.deformation import TissueLoad
 from sim.ultrasound.probe import LinearProbe
-from sim.ultrasound.scanner import PRESETS, random_preset
+from sim.ultrasound.scanner import named_presets, random_preset
 from sim.ultrasound.settings import UltrasoundSettings
 from sim.ultrasound.simulator import UltrasoundSimulator
 from sim.ultrasound.skin_pose import probe_pose_on_skin
@@ -93,7 +93,7 @@ def test_bad_lost_coupling_is_refused_by_name(lost: tuple[float, ...]) -> None:
 
 
 def test_named_presets_couple_fully_and_some_random_ones_lift_an_edge() -> None:
-    assert all(preset.settings().lost_coupling == (0.0, 0.0) for preset in PRESETS.values())
+    assert all(preset.settings().lost_coupling == (0.0, 0.0) for preset in named_presets().values())
     drawn = [random_preset(seed).settings().lost_coupling for seed in range(40)]
     lifted = [lost for lost in drawn if lost != (0.0, 0.0)]
     assert 2 <= len(lifted) <= 20

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -13,12 +14,14 @@ from sim.phantom import Phantom
 from sim.phantom.loader import load_phantom
 from sim.ultrasound.probe import LinearProbe
 from sim.ultrasound.scanner import (
-    PRESETS,
     RANDOM_RANGES,
     TGC_ATTENUATION_RANGE,
     ScannerPreset,
+    load_scanner_preset,
+    named_presets,
     random_preset,
     scanner_preset,
+    scanners_dir,
 )
 from sim.ultrasound.settings import UltrasoundSettings
 from sim.ultrasound.simulator import UltrasoundSimulator
@@ -293,18 +296,18 @@ def test_random_presets_are_seeded_and_within_their_ranges() -> None:
         assert preset.speckle_smoothing_axial == 0.0  # across the beam only
         assert 0.0 <= preset.speckle_smoothing <= RANDOM_RANGES["speckle_smoothing"][1]
     assert scanner_preset("random-3") == random_preset(3)
-    assert scanner_preset("vascular") is PRESETS["vascular"]
+    assert scanner_preset("vascular") is scanner_preset("vascular")
 
 
 def test_a_preset_sets_the_probe_depth_and_so_the_pixel_spacing() -> None:
-    preset = PRESETS["vascular-deep"]
+    preset = scanner_preset("vascular-deep")
     probe = preset.probe(LinearProbe(rows=256))
     assert probe.pixel_height == pytest.approx(preset.depth / 256)
     assert probe.centre_frequency == preset.centre_frequency
 
 
 def test_a_preset_at_another_depth_keeps_its_focus_fraction_and_everything_else() -> None:
-    preset = PRESETS["vascular-deep"]
+    preset = scanner_preset("vascular-deep")
     framed = preset.at_depth(0.045)
     assert (framed.depth, framed.name) == (0.045, "vascular-deep@45.0mm")
     assert framed.focal_depth == pytest.approx(0.045 * preset.focal_depth / preset.depth)
@@ -321,6 +324,60 @@ def test_a_preset_at_another_depth_keeps_its_focus_fraction_and_everything_else(
 def test_unknown_presets_are_refused_by_name(name: str, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         scanner_preset(name)
+
+
+def test_the_named_presets_are_files_and_a_file_is_a_preset(tmp_path) -> None:
+    assert sorted(named_presets()) == sorted(p.stem for p in scanners_dir().glob("*.yaml"))
+    assert scanner_preset("vascular") == ScannerPreset()  # the defaults, by name
+    assert scanner_preset("vascular-compound") == ScannerPreset(
+        name="vascular-compound", compound_frames=3, compound_angle=0.17
+    )
+    path = tmp_path / "my-machine.yaml"
+    path.write_text(
+        "centre_frequency: 12e6\n"  # PyYAML reads this as text; still a number here
+        "depth: 0.035\nfocal_depth: 0.018\ncompound_frames: 3\ncompound_angle: 0.2\n"
+        "tgc_sliders_db: [0, 1, 2, 3]\nclutter_db: null\nlost_coupling: [0.1, 0]\n"
+    )
+    preset = scanner_preset(str(path))
+    assert preset == ScannerPreset(
+        name="my-machine",
+        centre_frequency=12.0e6,
+        depth=0.035,
+        focal_depth=0.018,
+        compound_frames=3,
+        compound_angle=0.2,
+        tgc_sliders_db=(0.0, 1.0, 2.0, 3.0),
+        clutter_db=None,
+        lost_coupling=(0.1, 0.0),
+    )
+    assert scanner_preset(path) == preset == load_scanner_preset(path)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("gain: 30\n", "unknown knob(s) gain; known: centre_frequency, depth,"),
+        ("name: mine\n", "unknown knob(s) name"),
+        ("gain_db: loud\n", "expected a finite number, got 'loud'"),
+        ("gain_db: .nan\n", "expected a finite number, got nan"),
+        ("gain_db: null\n", "expected a finite number, got None"),
+        ("compound_frames: 2.5\n", "expected a whole number, got 2.5"),
+        ("tgc_sliders_db: 3\n", "expected a list of numbers, got 3"),
+        ("centre_frequency: 50.0e+6\n", "centre_frequency must be 2-20 MHz, got 50 MHz"),
+        ("- 1\n", "a scanner preset is a mapping of knobs"),
+        ("gain_db: [unclosed\n", "not valid YAML"),
+    ],
+)
+def test_a_bad_preset_file_is_one_error_naming_the_file(tmp_path, text: str, message: str):
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=f"^{re.escape(str(path))}: .*{re.escape(message)}"):
+        scanner_preset(str(path))
+
+
+def test_a_missing_preset_file_is_named(tmp_path) -> None:
+    with pytest.raises(ValueError, match=r"nowhere\.yaml: scanner preset file not found"):
+        scanner_preset(str(tmp_path / "nowhere.yaml"))
 
 
 def test_bad_presets_are_refused() -> None:

@@ -13,7 +13,7 @@ from sim.phantom import Phantom, load_phantom
 from sim.ultrasound.compounding import accumulate_steered, compound_lines, steering_angles
 from sim.ultrasound.deformation import TissueLoad
 from sim.ultrasound.probe import LinearProbe
-from sim.ultrasound.scanner import COMPOUND_FRAMES, PRESETS, random_preset
+from sim.ultrasound.scanner import COMPOUND_FRAMES, random_preset, scanner_preset
 from sim.ultrasound.settings import UltrasoundSettings
 from sim.ultrasound.simulator import UltrasoundSimulator
 from sim.ultrasound.skin_pose import probe_pose_on_skin
@@ -130,8 +130,8 @@ def test_bad_compounding_settings_are_refused_by_name(changes: dict, message: st
 
 
 def test_presets_switch_compounding_on() -> None:
-    assert PRESETS["vascular"].settings().compound_frames == 1
-    settings = PRESETS["vascular-compound"].settings()
+    assert scanner_preset("vascular").settings().compound_frames == 1
+    settings = scanner_preset("vascular-compound").settings()
     assert (settings.compound_frames, settings.compound_angle) == (3, 0.17)
     drawn = [random_preset(seed) for seed in range(30)]
     assert {preset.compound_frames for preset in drawn} == set(COMPOUND_FRAMES)
