@@ -21,7 +21,7 @@ from resus.execution.executor import (
 )
 from resus.execution.local import LocalExecutor
 from resus.execution.ray_cluster import RayExecutor, check_address, start_local_ray
-from resus.execution.units import UnitRecord, read_json, run_pending, write_json
+from resus.execution.units import UnitRecord, file_digest, read_json, run_pending, write_json
 
 __all__ = [
     "EXECUTORS",
@@ -33,6 +33,7 @@ __all__ = [
     "UnitRecord",
     "check_address",
     "check_executor",
+    "file_digest",
     "grant_cpus",
     "granted_cpus",
     "limit_numba_threads",

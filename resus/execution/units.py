@@ -11,6 +11,7 @@ the units that had not finished.
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 import os
 from collections.abc import Callable, Sequence
@@ -39,6 +40,23 @@ def write_json(path: Path, data: dict) -> None:
     partial = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     partial.write_text(json.dumps(data, indent=2) + "\n")
     os.replace(partial, path)
+
+
+def file_digest(path: Path) -> str:
+    """16 hex digits of a SHA-256 over a file's bytes: what a key holds for a file that may be
+    replaced under the same name. Remembered per path, size and modification time, so a key
+    built many times reads the file once."""
+    stat = Path(path).stat()
+    return _file_digest(Path(path).resolve(), stat.st_size, stat.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=64)
+def _file_digest(path: Path, size: int, modified_ns: int) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as stream:
+        while chunk := stream.read(1 << 20):
+            digest.update(chunk)
+    return digest.hexdigest()[:16]
 
 
 def as_json(value: Any) -> Any:

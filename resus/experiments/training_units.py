@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from resus.execution import Executor, Resources, UnitRecord, run_pending
+from resus.execution import Executor, Resources, UnitRecord, file_digest, run_pending
 from resus.experiments.data import SubjectData
 from resus.segmentation.metrics import VesselIoU
 from resus.segmentation.presets import TrainingPreset
@@ -66,11 +66,19 @@ class TrainingUnit:
     cache: Path
     """The data folder; the unit's own folder is under DATA/training/."""
     encoder_weights: Path | None = None
+    """Encoder weights file of the imagenet regime."""
+    encoder_weights_digest: str | None = field(init=False)
+    """Its content (`file_digest`), read once where the unit is made: a file replaced under
+    the same name is another unit."""
     folder: Path = field(init=False)
     """DATA/training/EXPERIMENT/REGIME_SUBJECT_seedN_DIGEST: readable, and unique. Named
     once, where the unit is made, so its worker writes where its record says."""
 
     def __post_init__(self) -> None:
+        weights = self.encoder_weights
+        object.__setattr__(
+            self, "encoder_weights_digest", None if weights is None else file_digest(weights)
+        )
         digest = hashlib.sha256(json.dumps(self.key(), sort_keys=True).encode()).hexdigest()
         subject = re.sub(r"[^A-Za-z0-9]+", "-", self.held_out).strip("-")
         name = f"{self.regime}_{subject}_seed{self.seed}_{digest[:12]}"
@@ -79,6 +87,7 @@ class TrainingUnit:
 
     def key(self) -> dict:
         """Every setting the unit's result depends on (no paths: a moved cache still counts)."""
+        weights = self.encoder_weights
         return {
             "experiment": self.experiment,
             "regime": self.regime,
@@ -88,7 +97,11 @@ class TrainingUnit:
             "training": self.training.to_dict(),
             "device": self.device,
             "torch_threads": self.cpus,
-            "encoder_weights": None if self.encoder_weights is None else self.encoder_weights.name,
+            "encoder_weights": (
+                None
+                if weights is None
+                else {"name": weights.name, "sha256": self.encoder_weights_digest}
+            ),
         }
 
     @property

@@ -6,6 +6,7 @@ no cluster (names, address forms, an address where nothing answers) are here.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import re
@@ -22,6 +23,7 @@ from resus.execution import (
     RayExecutor,
     Resources,
     UnitRecord,
+    file_digest,
     make_executor,
     run_pending,
 )
@@ -106,6 +108,14 @@ def test_a_record_counts_only_with_its_settings_and_its_outputs(tmp_path):
     assert json.loads(record.path.read_text())["key"] == {"size": [1, 2]}
     assert not UnitRecord(record.path, {"size": (1, 3)}, (output,)).done()
     assert list(record.path.parent.iterdir()) == [record.path]  # no temporary file left
+
+
+def test_a_file_digest_is_its_content_and_follows_a_replacement(tmp_path):
+    path = tmp_path / "weights.pth"
+    path.write_bytes(b"first weights")
+    assert file_digest(path) == hashlib.sha256(b"first weights").hexdigest()[:16]
+    path.write_bytes(b"other weights, same name")
+    assert file_digest(path) == hashlib.sha256(b"other weights, same name").hexdigest()[:16]
 
 
 def runs_of(folder: Path, item: int) -> int:
