@@ -180,7 +180,8 @@ def scanners_dir() -> Path:
 @cache
 def named_presets() -> dict[str, ScannerPreset]:
     """The named presets (`scanners_dir`), by name."""
-    return {path.stem: load_scanner_preset(path) for path in sorted(scanners_dir().glob("*.yaml"))}
+    paths = sorted(scanners_dir().glob("*.yaml"), key=lambda path: path.stem)
+    return {path.stem: load_scanner_preset(path) for path in paths}
 
 
 def load_scanner_preset(path: str | Path) -> ScannerPreset:
