@@ -6,12 +6,14 @@ from: phantom, subject, seed, the scanner preset's name, the sweep pattern. None
 changes when a preset's knobs or the renderer do, so a cache keyed on them alone would hand
 back sweeps an older simulator made. Keyed on this fingerprint as well, a cached sweep is
 reused only if the same simulator would make it again. The hash errs the other way: a changed
-comment re-simulates, which costs minutes, never a wrong figure.
+comment re-simulates, which costs minutes, never a wrong figure. `files_digest` does the same
+for files outside the simulator that a cache depends on (a phantom spec of one's own, weights).
 """
 
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Iterable
 from functools import cache
 from pathlib import Path
 
@@ -41,4 +43,15 @@ def tree_fingerprint(roots: tuple[Path, ...]) -> str:
         for path in files:
             digest.update(path.relative_to(root).as_posix().encode())
             digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def files_digest(paths: Iterable[Path]) -> str:
+    """The first 16 hex digits of a SHA-256 over the files' bytes, in the order given: what a
+    cache key holds for files that may change under the same names."""
+    digest = hashlib.sha256()
+    for path in paths:
+        with Path(path).open("rb") as stream:
+            while chunk := stream.read(1 << 20):
+                digest.update(chunk)
     return digest.hexdigest()[:16]

@@ -11,7 +11,6 @@ the units that had not finished.
 from __future__ import annotations
 
 import functools
-import hashlib
 import json
 import os
 from collections.abc import Callable, Sequence
@@ -20,6 +19,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from resus.execution.executor import ONE_CPU, Executor, Resources
+from sim.fingerprint import files_digest
 
 Item = TypeVar("Item")
 
@@ -52,11 +52,7 @@ def file_digest(path: Path) -> str:
 
 @functools.lru_cache(maxsize=64)
 def _file_digest(path: Path, size: int, modified_ns: int) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as stream:
-        while chunk := stream.read(1 << 20):
-            digest.update(chunk)
-    return digest.hexdigest()[:16]
+    return files_digest([path])
 
 
 def as_json(value: Any) -> Any:

@@ -14,12 +14,12 @@ one ValueError naming the file.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import math
 from pathlib import Path
 from typing import Any
 
 from sim.assets import assets_dir, named_or_path
+from sim.fingerprint import files_digest
 from sim.phantom.anatomy import (
     FemoralAnatomy,
     FemoralNerve,
@@ -227,11 +227,7 @@ def phantom_digest(name_or_path: str | Path) -> str:
     """16 hex digits of a SHA-256 over the texts a spec is read from: its file and every spec
     it `extends`. A cache of simulated data keys on it, since a spec file edited in place keeps
     its name (the named specs are also in `simulator_fingerprint`)."""
-    _, sources = _read_spec(_resolve(name_or_path), ())
-    digest = hashlib.sha256()
-    for path in sources:
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
+    return files_digest(_read_spec(_resolve(name_or_path), ())[1])
 
 
 def _read_spec(path: Path, seen: tuple[Path, ...]) -> tuple[Any, tuple[Path, ...]]:
