@@ -47,7 +47,7 @@ import numpy as np
 import torch
 
 from resus.acquisition.patterns import LinearPattern
-from resus.errors import ResusError, check_choice
+from resus.errors import ResusError, check_choice, simulator_errors
 from resus.execution import Executor, Resources, make_executor
 from resus.experiments.vessel_targets import vessel_depth
 from resus.segmentation.data import LabelledImages
@@ -56,6 +56,8 @@ from resus.segmentation.folders import FolderImages
 from resus.segmentation.presets import TrainingPreset, get_preset, pick_preset
 from resus.segmentation.trained_model import Segmenter, TrainedModel
 from sim.fingerprint import simulator_fingerprint
+from sim.phantom import load_phantom
+from sim.ultrasound.scanner import RANDOM_RANGES, sweep_preset
 
 if TYPE_CHECKING:
     from resus.experiments.sim2real_units import SimOnlyUnit
@@ -196,6 +198,10 @@ class Sim2RealSettings:
         if not self.subjects:
             raise ResusError(f"{where}.subjects is empty")
         check_choice(f"{where}.regime", self.regime, SIM2REAL_REGIMES)
+        with simulator_errors(f"{where}.phantom"):
+            load_phantom(self.phantom)
+        with simulator_errors(f"{where}.scanner"):
+            sweep_preset(self.scanner, 0, 0)
         counts = self.label_counts
         if not counts or list(counts) != sorted(set(counts)) or counts[0] < 0:
             raise ResusError(
@@ -698,8 +704,6 @@ def subject_preset(
     """The scanner preset of a subject's sweep (`sweep_preset`), its displayed depth set, when
     `settings.target_depth_fraction` asks, so the vessels at the sweep's middle lie at a
     fraction of it drawn from (seed, subject)."""
-    from sim.ultrasound.scanner import RANDOM_RANGES, sweep_preset
-
     preset = sweep_preset(settings.scanner, seed, subject)
     if preset is None or settings.target_depth_fraction is None:
         return preset

@@ -126,6 +126,12 @@ def test_too_few_real_images_is_one_error_naming_the_settings():
         ({"rehearsal_images": -1}, "rehearsal_images must be >= 0, got -1"),
         ({"off_vessel_share": 1.5}, r"off_vessel_share must be in \[0, 1\], got 1.5"),
         ({"off_vessel_offset": (0.05, 0.04)}, r"off_vessel_offset must be \(low, high\)"),
+        ({"phantom": "thigh"}, "Sim2RealSettings.phantom: unknown phantom 'thigh'; known:"),
+        ({"scanner": "vascullar"}, "Sim2RealSettings.scanner: unknown scanner preset 'vascullar'"),
+        (
+            {"scanner": "no/such.yaml"},
+            "Sim2RealSettings.scanner: no/such.yaml: scanner preset file",
+        ),
         (
             {"weight_averaging_epochs": 9},
             r"weight_averaging_epochs must be in \[0, 8\] \(the max_epochs of training preset "
