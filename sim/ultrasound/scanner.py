@@ -200,10 +200,15 @@ def load_scanner_preset(path: str | Path) -> ScannerPreset:
         raise ValueError(
             f"{path}: unknown knob(s) {', '.join(map(str, unknown))}; known: {', '.join(knobs)}"
         )
+    values = {}
+    for key, value in data.items():
+        try:
+            values[key] = _knob(knobs[key].type, value)
+        except ValueError as error:
+            raise ValueError(f"{path}: {key}: {error}") from None
     try:
-        values = {key: _knob(knobs[key].type, value) for key, value in data.items()}
         return ScannerPreset(name=path.stem, **values)
-    except (TypeError, ValueError) as error:
+    except ValueError as error:  # a knob out of its range
         raise ValueError(f"{path}: {error}") from None
 
 

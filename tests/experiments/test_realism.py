@@ -35,7 +35,7 @@ from resus.experiments.realism import (
 from resus.sweep.io import write_sweep
 from sim.labels import ARTERY, VEIN
 from sim.phantom import Phantom, load_phantom, make_subject
-from sim.ultrasound.scanner import PRESETS
+from sim.ultrasound.scanner import scanner_preset
 from sim.ultrasound.simulator import UltrasoundSimulator
 from sim.ultrasound.skin_pose import probe_pose_on_skin
 
@@ -483,7 +483,7 @@ def test_a_wall_that_scatters_like_tissue_shows_above_and_below_the_lumen_not_be
     Three subjects' frames at the `vascular` preset, their artery and vein drawn 16-19 mm apart
     so that the tissue beside each wall is tissue, not the other vessel's wall (side by side,
     as the femoral subjects are drawn, the ring beside reaches the neighbour: 1.36 at 0.4)."""
-    vascular = PRESETS["vascular"]
+    vascular = scanner_preset("vascular")
     femoral = load_phantom("femoral")
     ranges = {**femoral.variation.ranges, "artery_vein_spacing": (0.016, 0.019)}
     apart = dataclasses.replace(
