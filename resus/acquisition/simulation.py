@@ -39,10 +39,15 @@ def resolve_scene(scene: str | Path, phantom: str | None, subject: int | None) -
 def world_key(scene: SceneConfig) -> dict[str, Any]:
     """The simulated world a sweep is made in, as JSON values a cache compares: the scene's
     content, not its file's name (a scene edited in place is another scene), and the digest
-    of its phantom spec's files (`phantom_digest`: an edited spec, or one it extends, is
-    another phantom)."""
+    of its phantom spec's files (`scene_phantom_digest`)."""
+    return {"scene": scene.to_dict(), "phantom_digest": scene_phantom_digest(scene)}
+
+
+def scene_phantom_digest(scene: SceneConfig) -> str:
+    """`phantom_digest` of the scene's phantom: an edited spec, or one it extends, is another
+    phantom."""
     with simulator_errors(f"phantom {scene.phantom!r}"):
-        return {"scene": scene.to_dict(), "phantom_digest": phantom_digest(scene.phantom)}
+        return phantom_digest(scene.phantom)
 
 
 def phantom_spec(scene: SceneConfig, seed: int | None = None) -> PhantomSpec:
@@ -89,7 +94,7 @@ def simulate_sweep(
     )
     provenance = {
         "phantom": scene.phantom,
-        "phantom_digest": world_key(scene)["phantom_digest"],
+        "phantom_digest": scene_phantom_digest(scene),
         "subject": scene.subject,
         "seed": spec.seed,
         "scanner": None if preset is None else preset.name,
@@ -118,7 +123,7 @@ def simulated_truth(scene: SceneConfig, provenance: Mapping[str, object]) -> Pha
             "compare different anatomy"
         )
     recorded = provenance.get("phantom_digest")
-    if recorded is not None and recorded != world_key(scene)["phantom_digest"]:
+    if recorded is not None and recorded != scene_phantom_digest(scene):
         raise ResusError(
             f"phantom {scene.phantom!r} is not the spec the sweep was simulated from (its "
             f"files changed since: digest {recorded} in the provenance): scores would compare "

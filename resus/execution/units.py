@@ -44,8 +44,8 @@ def write_json(path: Path, data: dict) -> None:
 
 def file_digest(path: Path) -> str:
     """16 hex digits of a SHA-256 over a file's bytes: what a key holds for a file that may be
-    replaced under the same name. Remembered per path, size and modification time, so a key
-    built many times reads the file once."""
+    replaced under the same name. Remembered per path, size and modification time, so the
+    units that share a file (every imagenet run of an experiment) read it once."""
     stat = Path(path).stat()
     return _file_digest(Path(path).resolve(), stat.st_size, stat.st_mtime_ns)
 

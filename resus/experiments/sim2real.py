@@ -622,7 +622,7 @@ def _subject_scan(
 ) -> tuple[dict, ScannerPreset | None]:
     """A subject's sweep provenance (`sweep_provenance`) and the scanner preset that makes
     it, from one draw of the subject's phantom."""
-    from resus.acquisition.simulation import phantom_spec, resolve_scene, world_key
+    from resus.acquisition.simulation import phantom_spec, resolve_scene, scene_phantom_digest
     from sim.phantom import Phantom
 
     scene = resolve_scene("default", settings.phantom, subject)
@@ -631,7 +631,7 @@ def _subject_scan(
     path = subject_sweep(settings, subject, seed).trajectory(Phantom(spec), scene.phantom_to_base)
     provenance = {
         "phantom": settings.phantom,
-        "phantom_digest": world_key(scene)["phantom_digest"],
+        "phantom_digest": scene_phantom_digest(scene),
         "subject": subject,
         "seed": spec.seed,
         "scanner": None if preset is None else preset.name,
