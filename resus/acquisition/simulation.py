@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -36,11 +37,17 @@ def resolve_scene(scene: str | Path, phantom: str | None, subject: int | None) -
         return dataclasses.replace(load_scene_config(scene_path(scene)), **changes)
 
 
-def world_key(scene: SceneConfig) -> dict[str, Any]:
-    """The simulated world a sweep is made in, as JSON values a cache compares: the scene's
-    content, not its file's name (a scene edited in place is another scene), and the digest
-    of its phantom spec's files (`scene_phantom_digest`)."""
-    return {"scene": scene.to_dict(), "phantom_digest": scene_phantom_digest(scene)}
+def world_key(scene: SceneConfig, preset: ScannerPreset | None) -> dict[str, Any]:
+    """The simulated world and scanner a sweep is made with, as JSON values a cache compares:
+    the scene's content, not its file's name (a scene edited in place is another scene), the
+    digest of its phantom spec's files (`scene_phantom_digest`), every knob of the scanner
+    preset (None: the probe's own settings) and the simulator's fingerprint."""
+    return {
+        "scene": scene.to_dict(),
+        "phantom_digest": scene_phantom_digest(scene),
+        "scanner": None if preset is None else preset.to_dict(),
+        "simulator": simulator_fingerprint(),
+    }
 
 
 def scene_phantom_digest(scene: SceneConfig) -> str:
@@ -48,6 +55,33 @@ def scene_phantom_digest(scene: SceneConfig) -> str:
     phantom."""
     with simulator_errors(f"phantom {scene.phantom!r}"):
         return phantom_digest(scene.phantom)
+
+
+def sweep_provenance(
+    scene: SceneConfig,
+    spec: PhantomSpec,
+    preset: ScannerPreset | None,
+    trajectory: Trajectory,
+    *,
+    rigid: bool = False,
+) -> dict:
+    """What a simulated sweep is made from, as JSON values recorded with it and compared by
+    the caches of simulated data: the phantom (and the digest of its spec's files: one edited
+    in place is another phantom), subject, seed, scanner preset (its name and every knob: a
+    preset file edited in place keeps its name), the sweep pattern and force (where and how
+    it was scanned), whether the tissue deformed, and the simulator (its fingerprint)."""
+    return {
+        "phantom": scene.phantom,
+        "phantom_digest": scene_phantom_digest(scene),
+        "subject": scene.subject,
+        "seed": spec.seed,
+        "scanner": None if preset is None else preset.name,
+        "scanner_knobs": None if preset is None else preset.to_dict(),
+        "pattern": json.loads(json.dumps(trajectory.pattern)),
+        "contact_force": trajectory.contact_force,
+        "deformation": spec.mechanics is not None and not rigid,
+        "simulator": simulator_fingerprint(),
+    }
 
 
 def phantom_spec(scene: SceneConfig, seed: int | None = None) -> PhantomSpec:
@@ -93,17 +127,8 @@ def simulate_sweep(
         robot, probe_source, settings=ScannerSettings(progress=progress), listeners=listeners
     )
     provenance = {
-        "phantom": scene.phantom,
-        "phantom_digest": scene_phantom_digest(scene),
-        "subject": scene.subject,
-        "seed": spec.seed,
-        "scanner": None if preset is None else preset.name,
-        "scanner_knobs": None if preset is None else preset.to_dict(),
+        **sweep_provenance(scene, spec, preset, trajectory, rigid=probe_config.rigid),
         "dynamic_range_db": probe_config.settings.dynamic_range_db,
-        "pattern": trajectory.pattern,
-        "contact_force": trajectory.contact_force,
-        "deformation": spec.mechanics is not None and not probe_config.rigid,
-        "simulator": simulator_fingerprint(),
     }
     return scanner.run(
         trajectory, out, source="sim", subject=subject_id(scene), provenance=provenance

@@ -207,25 +207,22 @@ def _simulate_many(
 
 
 def _sweep_record(job: dict, path: Path) -> UnitRecord:
-    """The record of one sweep of `--subjects`: everything the sweep depends on (the scene
-    and phantom as `world_key` knows them, a plan file's text with its path: a file edited in
-    place makes a new sweep), the simulator included (`sim.fingerprint`)."""
+    """The record of one sweep of `--subjects`: everything the sweep depends on (scene,
+    phantom, scanner and simulator as `world_key` knows them, a plan file's text with its
+    path: a file edited in place makes a new sweep)."""
     from resus.acquisition.simulation import resolve_scene, world_key
     from resus.execution import UnitRecord
-    from sim.fingerprint import simulator_fingerprint
 
     plan = job["trajectory"]  # a LinearPattern or the path of a trajectory file
-    preset = sweep_scanner(job["scanner"], job["seed"], job["subject"])
+    scene = resolve_scene(job["scene"], job["phantom"], job["subject"])
     key = {
-        **world_key(resolve_scene(job["scene"], job["phantom"], job["subject"])),
+        **world_key(scene, sweep_scanner(job["scanner"], job["seed"], job["subject"])),
         "trajectory": (
             {"path": plan, "text": Path(plan).read_text()}
             if isinstance(plan, str)
             else dataclasses.asdict(plan)
         ),
         **{name: job[name] for name in ("seed", "rigid")},
-        "scanner": None if preset is None else preset.to_dict(),
-        "simulator": simulator_fingerprint(),
     }
     return UnitRecord(path, key, (job["out"],))
 

@@ -6,10 +6,10 @@ all in one folder. Scans are independent units, prepared by an executor (`resus.
 worker processes of this machine, one per core by default, or a Ray cluster.
 
 Every stage is cached: a folder's `scan.json` records the settings each stage ran with (for
-the simulation, the scene's content, a digest of the phantom spec's files and the simulator's
-fingerprint too: `world_key`, `sim.fingerprint`), and a stage whose files exist and whose
-recorded settings equal the requested ones is skipped. The
-record is written only after a stage finishes, so a crashed or interrupted stage runs again.
+the simulation, the scene's content, a digest of the phantom spec's files, the scanner
+preset's knobs and the simulator's fingerprint too: `world_key`), and a stage whose files
+exist and whose recorded settings equal the requested ones is skipped. The record is written
+only after a stage finishes, so a crashed or interrupted stage runs again.
 """
 
 from __future__ import annotations
@@ -25,7 +25,6 @@ from resus.errors import ResusError, check_choice, simulator_errors
 from resus.execution import Executor, limit_numba_threads, make_executor, read_json, write_json
 from resus.reconstruction.compounding import ReconstructionSettings
 from resus.reslicing.reslice import ResliceSettings
-from sim.fingerprint import simulator_fingerprint
 from sim.labels import LABEL_NAMES
 from sim.phantom.loader import load_phantom
 from sim.ultrasound.scanner import ScannerPreset, scanner_preset
@@ -186,12 +185,10 @@ def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:
     from resus.acquisition.simulation import resolve_scene, world_key
 
     scene = resolve_scene(settings.scene, settings.phantom, scan.subject)
-    preset = settings.preset
     stages = {
-        "simulate": {**world_key(scene), "scanner": None if preset is None else preset.to_dict(),
+        "simulate": {**world_key(scene, settings.preset),
                      "sweep": dataclasses.asdict(scan.sweep or settings.sweep),
-                     "cols": settings.cols, "rows": settings.rows,
-                     "simulator": simulator_fingerprint()},
+                     "cols": settings.cols, "rows": settings.rows},
         "reconstruct": {"grid": settings.grid, "spacing": settings.spacing,
                         "settings": dataclasses.asdict(settings.reconstruction)},
         "reslice": dataclasses.asdict(settings.reslice),

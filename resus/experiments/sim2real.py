@@ -55,7 +55,6 @@ from resus.segmentation.evaluate import Evaluation, score_labels
 from resus.segmentation.folders import FolderImages
 from resus.segmentation.presets import TrainingPreset, get_preset, pick_preset
 from resus.segmentation.trained_model import Segmenter, TrainedModel
-from sim.fingerprint import simulator_fingerprint
 from sim.phantom import load_phantom
 from sim.ultrasound.scanner import RANDOM_RANGES, sweep_preset
 
@@ -609,11 +608,8 @@ def few_label_curve(
 
 
 def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dict:
-    """What a sweep of the experiment must have been made from to be reused: the phantom (and
-    the digest of its spec's files: one edited in place is another phantom), subject, seed,
-    scanner preset (its name and every knob: a preset file edited in place keeps its name),
-    the subject's sweep pattern and force (where and how it was scanned), whether its tissue
-    deformed, and the simulator that made it (its fingerprint)."""
+    """What a subject's sweep of the experiment must have been made from to be reused
+    (`resus.acquisition.simulation.sweep_provenance`)."""
     return _subject_scan(settings, subject, seed)[0]
 
 
@@ -622,26 +618,14 @@ def _subject_scan(
 ) -> tuple[dict, ScannerPreset | None]:
     """A subject's sweep provenance (`sweep_provenance`) and the scanner preset that makes
     it, from one draw of the subject's phantom."""
-    from resus.acquisition.simulation import phantom_spec, resolve_scene, scene_phantom_digest
+    from resus.acquisition.simulation import phantom_spec, resolve_scene, sweep_provenance
     from sim.phantom import Phantom
 
     scene = resolve_scene("default", settings.phantom, subject)
     spec = phantom_spec(scene, seed)
     preset = subject_preset(settings, spec, subject, seed)
     path = subject_sweep(settings, subject, seed).trajectory(Phantom(spec), scene.phantom_to_base)
-    provenance = {
-        "phantom": settings.phantom,
-        "phantom_digest": scene_phantom_digest(scene),
-        "subject": subject,
-        "seed": spec.seed,
-        "scanner": None if preset is None else preset.name,
-        "scanner_knobs": None if preset is None else preset.to_dict(),
-        "pattern": json.loads(json.dumps(path.pattern)),
-        "contact_force": path.contact_force,
-        "deformation": spec.mechanics is not None,
-        "simulator": simulator_fingerprint(),
-    }
-    return provenance, preset
+    return sweep_provenance(scene, spec, preset, path), preset
 
 
 def simulate_subjects(
