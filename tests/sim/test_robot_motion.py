@@ -110,6 +110,8 @@ def test_speed_linear_moves_at_the_commanded_velocity_until_stopped(robot) -> No
     assert np.linalg.norm(robot.target_tcp_pose()[:3, 3] - after) < 1e-3
     robot.stop()
     assert robot.is_steady()
+    # at rest the controller's joint reference (getTargetQ) is where the joints are
+    np.testing.assert_allclose(robot.target_joint_positions(), robot.joint_positions(), atol=1e-3)
     np.testing.assert_allclose(robot.tcp_pose()[:3, :3], orientation, atol=1e-3)
 
 
