@@ -230,7 +230,7 @@ def phantom_digest(name_or_path: str | Path) -> str:
     return files_digest(_read_spec(_resolve(name_or_path), ())[1])
 
 
-def _read_spec(path: Path, seen: tuple[Path, ...]) -> tuple[Any, tuple[Path, ...]]:
+def _read_spec(path: Path, seen: tuple[Path, ...]) -> tuple[dict[str, Any], tuple[Path, ...]]:
     """The spec's YAML mapping and the files it was read from (this one first); `extends:
     NAME` (a named spec or a path) starts from that spec's mapping, this file's keys laid over
     it (mappings merged key by key, anything else replaced): a variant says only what it
@@ -238,7 +238,7 @@ def _read_spec(path: Path, seen: tuple[Path, ...]) -> tuple[Any, tuple[Path, ...
     if path.resolve() in seen:
         raise ValueError(f"{path}: `extends` loops back to {seen[0]}")
     data = read_yaml_file(path, "phantom spec")
-    if not isinstance(data, dict) or "extends" not in data:
+    if "extends" not in data:
         return data, (path,)
     changes = {key: value for key, value in data.items() if key != "extends"}
     base, sources = _read_spec(_resolve(str(data["extends"])), (*seen, path.resolve()))

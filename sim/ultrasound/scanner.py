@@ -189,10 +189,7 @@ def load_scanner_preset(path: str | Path) -> ScannerPreset:
     default where absent), named by the file's stem. Every problem is one ValueError naming
     the file."""
     path = Path(path)
-    data = read_yaml_file(path, "scanner preset")
-    data = {} if data is None else data  # an empty file: the defaults
-    if not isinstance(data, dict):
-        raise ValueError(f"{path}: a scanner preset is a mapping of knobs, got {data!r}")
+    data = read_yaml_file(path, "scanner preset")  # an empty file: the defaults
     knobs = {field.name: field for field in dataclasses.fields(ScannerPreset)}
     del knobs["name"]
     unknown = sorted(set(data) - set(knobs), key=str)

@@ -186,7 +186,7 @@ def test_make_subject_rejects_misuse() -> None:
     ("text", "message"),
     [
         ("name: [unclosed\n", "not valid YAML"),
-        ("- just\n- a list\n", "must be a mapping"),
+        ("- just\n- a list\n", "a phantom spec file holds a mapping of keys, got a list"),
         ("name: x\n", "exactly one of `anatomy` or `vessels`"),
     ],
 )

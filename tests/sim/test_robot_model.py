@@ -102,7 +102,7 @@ def test_default_scene_file_is_the_default_config_and_round_trips(tmp_path) -> N
             "phantom_to_base: {matrix: [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}\n",
             "rigid",
         ),
-        ("- a\n- b\n", "mapping"),
+        ("- a\n- b\n", "a scene file holds a mapping of keys, got a list"),
     ],
 )
 def test_bad_scene_files_name_the_file_and_the_problem(tmp_path, text, message) -> None:

@@ -364,7 +364,8 @@ def test_the_named_presets_are_files_and_a_file_is_a_preset(tmp_path) -> None:
         ("compound_frames: 2.5\n", "compound_frames: expected a whole number, got 2.5"),
         ("tgc_sliders_db: 3\n", "tgc_sliders_db: expected a list of numbers, got 3"),
         ("centre_frequency: 50.0e+6\n", "centre_frequency must be 2-20 MHz, got 50 MHz"),
-        ("- 1\n", "a scanner preset is a mapping of knobs"),
+        ("- 1\n", "a scanner preset file holds a mapping of keys, got a list"),
+        ("just words\n", "a scanner preset file holds a mapping of keys, got a str"),
         ("gain_db: [unclosed\n", "not valid YAML"),
     ],
 )
