@@ -9,12 +9,10 @@ from typing import Annotated
 
 import typer
 
-from resus.cli.evaluate import read_image_folders
 from resus.cli.executor_options import AddressOption, ExecutorOption, JobsOption
 from resus.cli.experiment import PresetOption, ReportFolderOption, run_options
 from resus.cli.options import DeviceOption
 from resus.cli.parsers import flag_error, parse_numbers
-from resus.errors import ResusError
 
 
 def register(group: typer.Typer) -> None:
@@ -68,6 +66,7 @@ def register(group: typer.Typer) -> None:
         from simulation and from scratch: report.md, results.json, few_label_curve.png."""
         from resus.execution import make_executor
         from resus.experiments.sim2real import get_sim2real_preset, real_splits, run_sim2real
+        from resus.segmentation.folders import read_data_set
         from resus.segmentation.model import resolve_device
 
         options = run_options(out, data, seed, device, jobs, executor, address)
@@ -90,9 +89,7 @@ def register(group: typer.Typer) -> None:
         with flag_error("--device"):
             resolve_device(device)
         with flag_error("--real"):
-            if not real.is_dir():
-                raise ResusError("no such folder", real)
-            folder = read_image_folders(real / "images", real / "masks")
+            folder = read_data_set(real)
             real_splits(len(folder), settings, seed)
         with make_executor(executor, jobs, address) as engine:
             result = run_sim2real(

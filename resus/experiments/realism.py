@@ -625,13 +625,10 @@ def read_sweep_set(
 
 def read_image_folder(folder: str | Path, name: str = "real") -> ImageSet:
     """Every image of `folder/images` with its `folder/masks` namesake (nonzero = vessel),
-    read by `resus.segmentation.folders.read_folders` like a training set."""
-    from resus.segmentation.folders import read_folders
+    read by `resus.segmentation.folders.read_data_set` like a training set."""
+    from resus.segmentation.folders import read_data_set
 
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise ResusError("no such folder", folder)
-    data = read_folders(folder / "images", folder / "masks")
+    data = read_data_set(Path(folder))
     vessels = tuple(labels > 0 for labels in data.labels)
     return ImageSet(name, data.images, vessels, data.names)
 

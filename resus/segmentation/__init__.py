@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from resus.segmentation.curves import plot_training_curves
     from resus.segmentation.data import LabelledImages, SegmentationDataset
     from resus.segmentation.evaluate import Evaluation, Overlap, evaluate_folder, score_labels
-    from resus.segmentation.folders import FolderImages, read_folders
+    from resus.segmentation.folders import FolderImages, read_data_set, read_folders
     from resus.segmentation.inference import predict
     from resus.segmentation.loaders import load_reslice_sets, load_sweep_frames
     from resus.segmentation.loso import (
@@ -73,7 +73,7 @@ _MODULES: dict[str, tuple[str, ...]] = {
     "curves": ("plot_training_curves",),
     "data": ("LabelledImages", "SegmentationDataset"),
     "evaluate": ("Evaluation", "Overlap", "evaluate_folder", "score_labels"),
-    "folders": ("FolderImages", "read_folders"),
+    "folders": ("FolderImages", "read_data_set", "read_folders"),
     "inference": ("predict",),
     "loaders": ("load_reslice_sets", "load_sweep_frames"),
     "loso": (
@@ -134,6 +134,7 @@ __all__ = [
     "plot_training_curves",
     "pooled_iou",
     "predict",
+    "read_data_set",
     "read_folders",
     "resolve_device",
     "run_loso",

@@ -197,6 +197,15 @@ def _pair(images: dict[str, Path], masks: dict[str, Path], folders: tuple[Path, 
         raise ResusError(message, masks[no_image[0]])
 
 
+def read_data_set(folder: Path) -> FolderImages:
+    """A data set laid out as `folder/images/` and `folder/masks/` (usgra-seg's layout),
+    read by `read_folders`."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ResusError("no such folder", folder)
+    return read_folders(folder / "images", folder / "masks")
+
+
 def read_folders(image_folder: Path, mask_folder: Path) -> FolderImages:
     """Every image in `image_folder` with its mask from `mask_folder`, paired by file stem."""
     image_folder, mask_folder = Path(image_folder), Path(mask_folder)

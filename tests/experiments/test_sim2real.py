@@ -430,6 +430,7 @@ def run_sim2real_cli(monkeypatch, capsys, real: Path, out: Path, *options: str) 
     ("make", "message"),
     [
         (lambda tmp: tmp / "none", "--real: {tmp}/none: no such folder"),
+        (lambda tmp: tmp, "--real: {tmp}/images: no such folder"),  # not a data set's layout
         (
             lambda tmp: write_real_folder(tmp / "few", 30),
             "30 real images: the few-label curve needs 100",
