@@ -22,6 +22,7 @@ from resus.cli.options import (
     SubjectOption,
 )
 from resus.cli.parsers import flag_error, parse_index_set, parse_numbers
+from resus.cli.plan import make_pattern
 from resus.errors import ResusError
 
 if TYPE_CHECKING:
@@ -111,19 +112,18 @@ def simulate(
     igtl_host: IgtlHostOption = "127.0.0.1",
 ) -> None:
     """Scan a simulated phantom with the simulated UR3e and write Sweeps with labels."""
-    from resus.acquisition.patterns import LinearPattern
-
     if trajectory == "linear":
-        start_x, start_y = parse_numbers(start, "--start", count=2)
-        direction_x, direction_y = parse_numbers(direction, "--direction", count=2)
-        plan: object = LinearPattern(
-            start=(start_x, start_y),
-            direction=(direction_x, direction_y),
-            length=length,
-            speed=speed,
-            contact_force=force if force > 0 else None,
-            frame_rate=frame_rate,
-            tilt_deg=tilt,
+        plan: object = make_pattern(
+            "linear",
+            {
+                "start": parse_numbers(start, "--start", count=2),
+                "direction": parse_numbers(direction, "--direction", count=2),
+                "length": length,
+                "speed": speed,
+                "contact_force": force if force > 0 else None,
+                "frame_rate": frame_rate,
+                "tilt_deg": tilt,
+            },
         )
     elif Path(trajectory).is_file():
         plan = trajectory

@@ -154,6 +154,10 @@ def test_bad_value(monkeypatch, capsys, tmp_path, path):
     [
         (["calibrate-time", "s.h5", "--range", "0.5:-0.5"], "--range: expected LOW:HIGH"),
         (["simulate", "--out", "o", "--subjects", "3-1"], "--subjects: expected e.g. 3"),
+        (
+            ["simulate", "--out", "o.h5", "--frame-rate", "-5"],
+            "--frame-rate: LinearPattern.frame_rate must be positive, got -5.0",
+        ),
         (["simulate", "--out", "o.h5", "--scanner", "vascullar"], "--scanner: unknown scanner"),
         (
             ["simulate", "--out", "o.h5", "--scanner", "no/such.yaml"],
