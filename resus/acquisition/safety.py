@@ -28,9 +28,13 @@ class SafetyLimits:
 
     def __post_init__(self) -> None:
         if not np.all(np.less(self.workspace_min, self.workspace_max)):
-            raise ResusError("safety workspace_min must be below workspace_max on every axis")
-        if not (self.max_speed > 0 and self.max_force > 0):
-            raise ResusError("safety max_speed and max_force must be positive")
+            raise ResusError(
+                "SafetyLimits.workspace_min must be below workspace_max on every axis, got "
+                f"{tuple(self.workspace_min)} and {tuple(self.workspace_max)}"
+            )
+        for name in ("max_speed", "max_force"):
+            if not getattr(self, name) > 0:
+                raise ResusError(f"SafetyLimits.{name} must be positive, got {getattr(self, name)}")
 
     def position_violation(self, position: np.ndarray) -> str | None:
         """Why a TCP position lies outside the workspace box, or None."""

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from resus.acquisition.safety import SafetyLimits, SafetyViolation
+from resus.errors import ResusError
 from sim.transforms import make_pose
 
 
@@ -35,3 +36,20 @@ def test_plan_violations_list_every_reason() -> None:
     reasons = limits.plan_violations(poses, speed=0.2, force=15.0)
     assert len(reasons) == 3
     assert reasons[0].startswith("pose 1:")
+
+
+@pytest.mark.parametrize(
+    ("limits", "message"),
+    [
+        ({"max_speed": 0.0}, "SafetyLimits.max_speed must be positive, got 0.0"),
+        ({"max_force": -1.0}, "SafetyLimits.max_force must be positive, got -1.0"),
+        (
+            {"workspace_min": (0.0, 0.0, 0.0), "workspace_max": (0.1, 0.0, 0.1)},
+            "workspace_min must be below workspace_max on every axis, got (0.0, 0.0, 0.0) and "
+            "(0.1, 0.0, 0.1)",
+        ),
+    ],
+)
+def test_bad_limits_are_refused_naming_the_setting_and_value(limits, message) -> None:
+    with pytest.raises(ResusError, match=re.escape(message)):
+        SafetyLimits(**limits)

@@ -164,6 +164,10 @@ def test_bad_value(monkeypatch, capsys, tmp_path, path):
             "--scanner: no/such.yaml: scanner preset file not found",
         ),
         (["plan", "--out", "p.yaml", "--pattern", "spiral"], "--pattern must be one of linear"),
+        (
+            "scan --robot sim --probe sim --trajectory t.yaml --out s.h5 --max-force 0".split(),
+            "--max-force: SafetyLimits.max_force must be positive, got 0.0",
+        ),
         (["emulate", "--arm", "hydraulic"], "--arm must be one of mujoco, kinematic"),
         (["emulate", "--fault", "meltdown"], "--fault"),
         (["reconstruct", "s.h5", "--out", "v.nrrd", "--voxels", "8,8"], "--voxels: expected 3"),
