@@ -40,6 +40,9 @@ def command_paths() -> dict[tuple[str, ...], object]:
 COMMANDS = command_paths()
 REQUIRED = {path: [p for p in command.params if p.required] for path, command in COMMANDS.items()}
 
+SIM_SCAN = ["--robot", "sim", "--probe", "sim", "--trajectory", "t", "--out", "s"]
+"""The flags `resus scan` needs, for a simulated scan."""
+
 BAD_VALUES: dict[tuple[str, ...], tuple[list[str], str]] = {
     ("demo",): (["--epochs", "many"], "Invalid value for '--epochs'"),
     ("simulate",): (["--out", "s.h5", "--jobs", "0"], "Invalid value for '--jobs'"),
@@ -49,10 +52,7 @@ BAD_VALUES: dict[tuple[str, ...], tuple[list[str], str]] = {
     ("emulate",): (["--port-base", "x"], "Invalid value for '--port-base'"),
     ("view",): (["s.h5", "--max-reslices", "0"], "Invalid value for '--max-reslices'"),
     ("plan",): (["--out", "p.yaml", "--passes", "two"], "Invalid value for '--passes'"),
-    ("scan",): (
-        ["--robot", "sim", "--probe", "sim", "--trajectory", "t", "--out", "s", "--volume-every=0"],
-        "Invalid value for '--volume-every'",
-    ),
+    ("scan",): ([*SIM_SCAN, "--volume-every=0"], "Invalid value for '--volume-every'"),
     ("calibrate-time",): (["s.h5", "--step", "fast"], "Invalid value for '--step'"),
     ("calibration-plan",): (["t.yaml", "--cycles", "x"], "Invalid value for '--cycles'"),
     ("vessels",): (["s.h5", "--out", "o", "--subject", "x"], "Invalid value for '--subject'"),
@@ -165,7 +165,7 @@ def test_bad_value(monkeypatch, capsys, tmp_path, path):
         ),
         (["plan", "--out", "p.yaml", "--pattern", "spiral"], "--pattern must be one of linear"),
         (
-            "scan --robot sim --probe sim --trajectory t.yaml --out s.h5 --max-force 0".split(),
+            ["scan", *SIM_SCAN, "--max-force", "0"],
             "--max-force: SafetyLimits.max_force must be positive, got 0.0",
         ),
         (["emulate", "--arm", "hydraulic"], "--arm must be one of mujoco, kinematic"),
