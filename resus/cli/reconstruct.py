@@ -73,7 +73,7 @@ def register(app: typer.Typer) -> None:
         from resus.reconstruction.compounding import ReconstructionSettings, reconstruct
         from resus.reconstruction.figures import save_slices_png
         from resus.reconstruction.grid import aabb_grid
-        from resus.reconstruction.io import intensity_to_uint8, write_volume
+        from resus.reconstruction.io import intensity_to_uint8, volume_suffix, write_volume
         from resus.reconstruction.ransac_grid import ransac_grid
 
         parse_choice(grid_kind, "--grid", GRIDS)
@@ -96,6 +96,11 @@ def register(app: typer.Typer) -> None:
         for path in (out, labels_out, png):
             if path is not None and not path.parent.is_dir():
                 raise ResusError("output folder does not exist", path.parent)
+        for path in (out, labels_out):
+            if path is not None:
+                volume_suffix(path)
+        if not spacing > 0:
+            raise ResusError(f"--spacing must be positive, got {spacing}")
         sweep = _load_sweep(sweep_path, calibration)
         poses = np.asarray(sweep.probe_to_base)
         frame_shape = tuple(sweep.frames.shape[1:])

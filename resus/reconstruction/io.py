@@ -27,8 +27,10 @@ SUBJECT_FIELD = "resus_subject"
 """Header field of the subject whose sweep a volume was reconstructed from."""
 
 
-def _suffix(path: Path) -> str:
-    suffix = path.suffix.lower()
+def volume_suffix(path: Path) -> str:
+    """The volume format of `path` by its suffix (lower case); any other suffix is a
+    ResusError naming the file (callers check before the work whose result it would hold)."""
+    suffix = Path(path).suffix.lower()
     if suffix not in NRRD_SUFFIXES + METAIMAGE_SUFFIXES:
         raise ResusError("volume files must end in .nrrd, .nhdr, .mha or .mhd", path)
     return suffix
@@ -37,7 +39,7 @@ def _suffix(path: Path) -> str:
 def _existing_volume(path: str | Path) -> tuple[Path, str]:
     """`path` and its volume suffix; ResusError if it is no volume file name or no file."""
     path = Path(path)
-    suffix = _suffix(path)
+    suffix = volume_suffix(path)
     if not path.is_file():
         raise ResusError("no such volume file", path)
     return path, suffix
@@ -56,7 +58,7 @@ def write_volume(
     fields (`label_names`, `resus_subject`), so that reslices of the volume know their subject.
     """
     path = Path(path)
-    suffix = _suffix(path)
+    suffix = volume_suffix(path)
     if array.shape != grid.shape:
         raise ResusError(f"volume shape {array.shape} does not match grid {grid.shape}", path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -173,6 +173,14 @@ def test_bad_value(monkeypatch, capsys, tmp_path, path):
         (["reconstruct", "s.h5", "--out", "v.nrrd", "--voxels", "8,8"], "--voxels: expected 3"),
         (["reconstruct", "s.h5", "--out", "v.nrrd", "--grid", "sphere"], "--grid must be one of"),
         (
+            ["reconstruct", "s.h5", "--out", "v.nrrd", "--spacing", "0"],
+            "--spacing must be positive, got 0.0",
+        ),
+        (  # before the sweep is read and reconstructed
+            ["reconstruct", "s.h5", "--out", "v.txt"],
+            "v.txt: volume files must end in .nrrd, .nhdr, .mha or .mhd",
+        ),
+        (
             ["train", "--sweeps", "s", "--out", "o", "--average-epochs", "9"],
             "--average-epochs: TrainingPreset.weight_averaging_epochs must be in [0, max_epochs",
         ),
