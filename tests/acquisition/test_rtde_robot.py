@@ -15,6 +15,7 @@ from scan_session import write_linear_plan
 
 from resus.acquisition.backends.rtde import RTDERobot, RTDERobotConfig
 from resus.acquisition.robot import RobotFault
+from resus.errors import ResusError
 from sim.robot.scene_config import load_scene_config
 from sim.rtde.launch import free_host, launch
 from sim.transforms import make_pose
@@ -77,11 +78,13 @@ def _pose_at_rest(robot: RTDERobot, timeout: float = 2.0) -> np.ndarray:
     raise AssertionError("the TCP did not come to rest")
 
 
-def test_config_rejects_bad_values():
-    with pytest.raises(ValueError, match="tcp_offset"):
+def test_config_rejects_bad_values_naming_the_setting():
+    with pytest.raises(ResusError, match=r"RTDERobotConfig\.tcp_offset must be a rigid 4x4"):
         RTDERobotConfig(tcp_offset=np.eye(3))
-    with pytest.raises(ValueError, match="servo_gain"):
+    with pytest.raises(ResusError, match=r"RTDERobotConfig\.servo_gain .*, got 5\.0$"):
         RTDERobotConfig(servo_gain=5.0)
+    with pytest.raises(ResusError, match=r"RTDERobotConfig\.frequency .*, got 600"):
+        RTDERobotConfig(frequency=600)
 
 
 def test_moves_streams_and_applies_the_tcp_offset():

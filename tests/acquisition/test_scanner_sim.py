@@ -4,6 +4,7 @@ Real parts throughout: the MuJoCo UR3e, the synthetic ultrasound, the HDF5 write
 """
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from resus.acquisition.backends.simulated import (
 from resus.acquisition.patterns import linear_sweep
 from resus.acquisition.safety import SafetyLimits, SafetyViolation
 from resus.acquisition.scanner import ScanAborted, Scanner, ScannerSettings
+from resus.errors import ResusError
 from resus.sweep.io import read_sweep
 from sim.transforms import invert_pose
 from sim.ultrasound.probe import LinearProbe
@@ -89,6 +91,18 @@ def test_a_loop_that_falls_behind_still_sweeps_the_whole_path_on_time(tmp_path) 
     assert np.linalg.norm(travel) == pytest.approx(0.01, abs=0.5e-3)
     span = sweep.timestamps[-1] - sweep.timestamps[0]
     assert span == pytest.approx(trajectory.duration, abs=2 / trajectory.frame_rate)
+
+
+@pytest.mark.parametrize(
+    ("setting", "message"),
+    [
+        ({"frame_rate": 0.0}, "SimulatedProbeConfig.frame_rate must be positive, got 0.0"),
+        ({"latency": -0.1}, "SimulatedProbeConfig.latency must be >= 0, got -0.1"),
+    ],
+)
+def test_probe_config_refuses_bad_values_naming_the_setting(setting, message) -> None:
+    with pytest.raises(ResusError, match=re.escape(message)):
+        SimulatedProbeConfig(**setting)
 
 
 def test_late_frames_on_an_offset_clock_are_placed_by_the_time_offset(tmp_path) -> None:

@@ -32,6 +32,7 @@ import numpy as np
 
 from resus.acquisition.backends.rtde_link import LINK_LOST, RUNTIME_PLAYING, Packet, RTDELink
 from resus.acquisition.robot import Robot, RobotFault
+from resus.errors import ResusError
 from sim.transforms import is_rigid, pose_from_ur, pose_to_ur
 
 SCRIPT_START_TIMEOUT = 2.0
@@ -80,21 +81,22 @@ class RTDERobotConfig:
     """Deceleration of `stop()` (m/s^2)."""
 
     def __post_init__(self) -> None:
+        where = "RTDERobotConfig"
         if self.tcp_offset is not None:
             offset = np.asarray(self.tcp_offset, dtype=np.float64)
             if offset.shape != (4, 4) or not is_rigid(offset):
-                raise ValueError(
-                    "tcp_offset must be a rigid 4x4 pose of the TCP in the flange frame"
+                raise ResusError(
+                    f"{where}.tcp_offset must be a rigid 4x4 pose of the TCP in the flange frame"
                 )
             object.__setattr__(self, "tcp_offset", offset)
         if not 0 < self.frequency <= 500:
-            raise ValueError(f"frequency must be in (0, 500] Hz, got {self.frequency}")
+            raise ResusError(f"{where}.frequency must be in (0, 500] Hz, got {self.frequency}")
         if not 0.03 <= self.servo_lookahead <= 0.2:
-            raise ValueError(
-                f"servo_lookahead must be in [0.03, 0.2] s, got {self.servo_lookahead}"
+            raise ResusError(
+                f"{where}.servo_lookahead must be in [0.03, 0.2] s, got {self.servo_lookahead}"
             )
         if not 100 <= self.servo_gain <= 2000:
-            raise ValueError(f"servo_gain must be in [100, 2000], got {self.servo_gain}")
+            raise ResusError(f"{where}.servo_gain must be in [100, 2000], got {self.servo_gain}")
 
 
 class RTDERobot(Robot):

@@ -15,6 +15,7 @@ import numpy as np
 
 from resus.acquisition.probe import Frame, SyntheticProbe
 from resus.acquisition.robot import Robot, RobotFault
+from resus.errors import ResusError
 from sim.phantom import Phantom
 from sim.robot.scene import load_scene_phantom
 from sim.robot.scene_config import SceneConfig
@@ -106,10 +107,11 @@ class SimulatedProbeConfig:
     """Image the rigid world even if the phantom has mechanics (no deformation)."""
 
     def __post_init__(self) -> None:
+        where = "SimulatedProbeConfig"
         if not self.frame_rate > 0:
-            raise ValueError(f"frame_rate must be positive, got {self.frame_rate}")
-        if self.latency < 0:
-            raise ValueError(f"latency must be >= 0, got {self.latency}")
+            raise ResusError(f"{where}.frame_rate must be positive, got {self.frame_rate}")
+        if not self.latency >= 0:
+            raise ResusError(f"{where}.latency must be >= 0, got {self.latency}")
 
 
 class SimulatedProbe(SyntheticProbe):
