@@ -41,8 +41,11 @@ def register(app: typer.Typer) -> None:
 
         from sim.rtde.app import ARMS, serve
         from sim.rtde.faults import FaultPlan
+        from sim.rtde.server import Ports
 
         parse_choice(arm, "--arm", ARMS)
+        with flag_error("--port-base"):
+            Ports(port_base)
         with flag_error("--fault"):
             faults = FaultPlan.parse(fault or [], seed=seed)
         logging.basicConfig(

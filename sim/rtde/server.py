@@ -42,6 +42,14 @@ class Ports:
 
     base: int = 0
 
+    def __post_init__(self) -> None:
+        low, high = DASHBOARD_PORT + self.base, RTDE_PORT + self.base
+        if not (low >= 1 and high <= 65535):
+            raise ValueError(
+                f"port base {self.base} puts the ports at {low}-{high}, outside 1-65535 "
+                f"(the base must lie in {1 - DASHBOARD_PORT}..{65535 - RTDE_PORT})"
+            )
+
     @property
     def dashboard(self) -> int:
         return DASHBOARD_PORT + self.base

@@ -170,6 +170,10 @@ def test_bad_value(monkeypatch, capsys, tmp_path, path):
         ),
         (["emulate", "--arm", "hydraulic"], "--arm must be one of mujoco, kinematic"),
         (["emulate", "--fault", "meltdown"], "--fault"),
+        (
+            ["emulate", "--port-base", "70000"],
+            "--port-base: port base 70000 puts the ports at 99999-100004, outside 1-65535",
+        ),
         (["reconstruct", "s.h5", "--out", "v.nrrd", "--voxels", "8,8"], "--voxels: expected 3"),
         (["reconstruct", "s.h5", "--out", "v.nrrd", "--grid", "sphere"], "--grid must be one of"),
         (

@@ -15,6 +15,7 @@ from scan_session import read_state
 from sim.robot.kinematics import forward_kinematics
 from sim.rtde.faults import FaultPlan
 from sim.rtde.launch import launch
+from sim.rtde.server import DASHBOARD_PORT, RTDE_PORT, Ports
 from sim.transforms import pose_from_ur
 
 pytestmark = [pytest.mark.slow, pytest.mark.hang_guard]
@@ -216,3 +217,11 @@ def test_motion_relative_fault_strikes_after_the_first_motion_command():
         finally:
             control.disconnect()
             receive.disconnect()
+
+
+def test_ports_stay_within_the_tcp_range():
+    assert Ports(100).dashboard == DASHBOARD_PORT + 100 and Ports(-29998).dashboard == 1
+    assert Ports(65535 - RTDE_PORT).rtde == 65535
+    for base in (-29999, 65536 - RTDE_PORT):
+        with pytest.raises(ValueError, match=f"port base {base} puts the ports at .*1-65535"):
+            Ports(base)
