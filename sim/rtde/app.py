@@ -90,6 +90,7 @@ def main(argv: list[str] | None = None) -> None:
     )
     try:
         faults = FaultPlan.parse(args.fault, seed=args.seed)
+        Ports(args.port_base)
     except ValueError as error:
         parser().error(str(error))
     serve(args.host, args.port_base, args.arm, args.scene, faults)
