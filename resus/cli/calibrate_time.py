@@ -15,7 +15,7 @@ import numpy as np
 import typer
 
 from resus.cli.options import PhantomOption, SceneOption
-from resus.cli.parsers import parse_numbers, parse_range
+from resus.cli.parsers import flag_error, parse_numbers, parse_range
 from resus.errors import ResusError
 
 
@@ -69,7 +69,8 @@ def calibration_plan(
     model = Phantom(phantom_spec(scene_config))
     x, y = parse_numbers(direction, "--direction", count=2)
     # the array lies along `direction`: the pattern heading is `direction` turned +90 deg about z
-    heading = sweep_heading((-y, x))
+    with flag_error("--direction"):
+        heading = sweep_heading((-y, x))
     centre_xy = np.array([parse_numbers(start, "--start", count=2)])
     centre = skin_poses(model, scene_config.phantom_to_base, centre_xy, heading, np.zeros(1))[0]
     trajectory = oscillation(

@@ -95,7 +95,8 @@ def register(app: typer.Typer) -> None:
                 )
         with flag_error("--reslices"):
             reslice_sets = load_reslice_sets(reslices or [])
-        split = make_split(frames, reslice_sets, test_subject, settings.validation_fraction)
+        with flag_error("--test-subject"):
+            split = make_split(frames, reslice_sets, test_subject, settings.validation_fraction)
         if regime == "resus" and not split.reslices:
             raise ResusError(
                 f"--regime resus: every given reslice belongs to the test subject {test_subject!r}"

@@ -171,6 +171,10 @@ def test_bad_value(monkeypatch, capsys, tmp_path, path):
         (["emulate", "--arm", "hydraulic"], "--arm must be one of mujoco, kinematic"),
         (["emulate", "--fault", "meltdown"], "--fault"),
         (
+            ["calibration-plan", "t.yaml", "--direction", "0,0"],
+            "--direction: the sweep direction must be a non-zero (x, y) vector",
+        ),
+        (
             ["emulate", "--port-base", "70000"],
             "--port-base: port base 70000 puts the ports at 99999-100004, outside 1-65535",
         ),

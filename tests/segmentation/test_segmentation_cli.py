@@ -150,3 +150,12 @@ def test_loaders_read_files_and_name_bad_ones(files) -> None:
     (files / "empty").mkdir()
     with pytest.raises(ResusError, match=r"empty: no \.h5 reslice files"):
         load_reslice_sets([files / "empty"])
+
+
+def test_train_command_names_the_flag_of_an_unknown_test_subject(files) -> None:
+    out = files / "nobody"
+    arguments = ["train", "--sweeps", str(files / "sweeps"), "--out", str(out)]
+    result = CliRunner().invoke(cli(), [*arguments, "--test-subject", "s9"])
+    assert isinstance(result.exception, ResusError), result.output
+    assert str(result.exception).startswith("--test-subject: test subject 's9' has no frames")
+    assert not out.exists()
