@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -18,7 +17,7 @@ from resus.acquisition.patterns import SweepPattern
 from resus.acquisition.scanner import Scanner, ScannerSettings, ScanResult
 from resus.acquisition.trajectory import Trajectory
 from resus.errors import ResusError, simulator_errors
-from resus.sweep.model import FrameSink
+from resus.sweep.model import FrameSink, check_provenance
 from sim.fingerprint import simulator_fingerprint
 from sim.phantom import Phantom, PhantomSpec, phantom_digest
 from sim.robot.scene import load_scene_phantom
@@ -69,19 +68,22 @@ def sweep_provenance(
     the caches of simulated data: the phantom (and the digest of its spec's files: one edited
     in place is another phantom), subject, seed, scanner preset (its name and every knob: a
     preset file edited in place keeps its name), the sweep pattern and force (where and how
-    it was scanned), whether the tissue deformed, and the simulator (its fingerprint)."""
-    return {
-        "phantom": scene.phantom,
-        "phantom_digest": scene_phantom_digest(scene),
-        "subject": scene.subject,
-        "seed": spec.seed,
-        "scanner": None if preset is None else preset.name,
-        "scanner_knobs": None if preset is None else preset.to_dict(),
-        "pattern": json.loads(json.dumps(trajectory.pattern)),
-        "contact_force": trajectory.contact_force,
-        "deformation": spec.mechanics is not None and not rigid,
-        "simulator": simulator_fingerprint(),
-    }
+    it was scanned), whether the tissue deformed, and the simulator (its fingerprint). In the
+    form a sweep stores it (`check_provenance`), so a cache compares it with a file's as is."""
+    return check_provenance(
+        {
+            "phantom": scene.phantom,
+            "phantom_digest": scene_phantom_digest(scene),
+            "subject": scene.subject,
+            "seed": spec.seed,
+            "scanner": None if preset is None else preset.name,
+            "scanner_knobs": None if preset is None else preset.to_dict(),
+            "pattern": trajectory.pattern,
+            "contact_force": trajectory.contact_force,
+            "deformation": spec.mechanics is not None and not rigid,
+            "simulator": simulator_fingerprint(),
+        }
+    )
 
 
 def phantom_spec(scene: SceneConfig, seed: int | None = None) -> PhantomSpec:

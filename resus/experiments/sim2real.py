@@ -618,14 +618,15 @@ def _subject_scan(
 ) -> tuple[dict, ScannerPreset | None]:
     """A subject's sweep provenance (`sweep_provenance`) and the scanner preset that makes
     it, from one draw of the subject's phantom."""
-    from resus.acquisition.simulation import phantom_spec, resolve_scene, sweep_provenance
+    from resus.acquisition.simulation import phantom_spec, resolve_scene
+    from resus.acquisition.simulation import sweep_provenance as simulated_provenance
     from sim.phantom import Phantom
 
     scene = resolve_scene("default", settings.phantom, subject)
     spec = phantom_spec(scene, seed)
     preset = subject_preset(settings, spec, subject, seed)
     path = subject_sweep(settings, subject, seed).trajectory(Phantom(spec), scene.phantom_to_base)
-    return sweep_provenance(scene, spec, preset, path), preset
+    return simulated_provenance(scene, spec, preset, path), preset
 
 
 def simulate_subjects(
