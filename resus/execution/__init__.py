@@ -21,7 +21,14 @@ from resus.execution.executor import (
 )
 from resus.execution.local import LocalExecutor
 from resus.execution.ray_cluster import RayExecutor, check_address, start_local_ray
-from resus.execution.units import UnitRecord, file_digest, read_json, run_pending, write_json
+from resus.execution.units import (
+    UnitRecord,
+    as_json,
+    file_digest,
+    read_json,
+    run_pending,
+    write_json,
+)
 
 __all__ = [
     "EXECUTORS",
@@ -31,6 +38,7 @@ __all__ = [
     "RayExecutor",
     "Resources",
     "UnitRecord",
+    "as_json",
     "check_address",
     "check_executor",
     "file_digest",

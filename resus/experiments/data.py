@@ -15,14 +15,20 @@ only after a stage finishes, so a crashed or interrupted stage runs again.
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError, check_choice, simulator_errors
-from resus.execution import Executor, limit_numba_threads, make_executor, read_json, write_json
+from resus.execution import (
+    Executor,
+    as_json,
+    limit_numba_threads,
+    make_executor,
+    read_json,
+    write_json,
+)
 from resus.reconstruction.compounding import ReconstructionSettings
 from resus.reslicing.reslice import ResliceSettings
 from sim.labels import LABEL_NAMES
@@ -85,7 +91,7 @@ class ScanSettings:
 
     def to_dict(self) -> dict:
         """JSON-able form (tuples become lists)."""
-        return json.loads(json.dumps(dataclasses.asdict(self)))
+        return as_json(dataclasses.asdict(self))
 
 
 @dataclass(frozen=True)
@@ -193,7 +199,7 @@ def stage_settings(scan: Scan, settings: ScanSettings) -> dict[str, dict]:
                         "settings": dataclasses.asdict(settings.reconstruction)},
         "reslice": dataclasses.asdict(settings.reslice),
     }  # fmt: skip
-    return json.loads(json.dumps(stages))
+    return as_json(stages)
 
 
 def stale_stages(out: Path, scan: Scan, settings: ScanSettings) -> list[str]:

@@ -35,7 +35,6 @@ scoring.
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from collections.abc import Sequence
 from contextlib import ExitStack
@@ -48,7 +47,7 @@ import torch
 
 from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError, check_choice, simulator_errors
-from resus.execution import Executor, Resources, make_executor
+from resus.execution import Executor, Resources, as_json, make_executor
 from resus.experiments.vessel_targets import vessel_depth
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.evaluate import Evaluation, score_labels
@@ -292,7 +291,7 @@ class Sim2RealSettings:
 
     def to_dict(self) -> dict:
         """JSON-able form (tuples become lists)."""
-        return json.loads(json.dumps(dataclasses.asdict(self)))
+        return as_json(dataclasses.asdict(self))
 
     def unit_key(self) -> dict:
         """`to_dict` without `ensemble`: what a fine-tuning's result depends on (a member is
