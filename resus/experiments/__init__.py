@@ -7,8 +7,9 @@
 - `report`: the experiments' report.md, results.json and figures.
 - `demo`: every stage of the pipeline on built-in defaults into one folder; `demo_report`
   renders its report.md from summary.json.
-- `realism`: simulated frames measured beside real images (grey levels, contrast, speckle),
-  with the table and figures of `resus realism`.
+- `realism`: simulated frames measured beside real images (grey levels, contrast, speckle,
+  vessels, bright lines), with the table and figures of `resus realism`; a package, one
+  module per kind of figure.
 """
 
 from resus.experiments.data import (

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from resus.experiments.line_orientation import (
+from resus.experiments.realism import ImageSet, measure
+from resus.experiments.realism.line_orientation import (
     ANGLE_BIN_DEGREES,
     bright_line_normals,
     line_angle_counts,
     share_between,
 )
-from resus.experiments.realism import ImageSet, measure
 
 SIZE = 256
 
