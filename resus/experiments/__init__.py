@@ -10,6 +10,8 @@
 - `realism`: simulated frames measured beside real images (grey levels, contrast, speckle,
   vessels, bright lines), with the table and figures of `resus realism`; a package, one
   module per kind of figure.
+- `sim2real`: the sim-to-real experiment, trained on simulation and scored on real images, with
+  its few-label curve (a package of its own, imported apart: it needs torch).
 """
 
 from resus.experiments.data import (

@@ -29,6 +29,7 @@ from resus.experiments.sim2real import (
     fine_tune,
     get_sim2real_preset,
     off_vessel_subjects,
+    pretraining_verdict,
     real_splits,
     rehearsal_frames,
     repeated_to,
@@ -38,7 +39,6 @@ from resus.experiments.sim2real import (
     subject_sweep,
     sweep_provenance,
 )
-from resus.experiments.sim2real_report import pretraining_verdict
 from resus.experiments.vessel_targets import vessel_depth, vessel_midline
 from resus.segmentation.data import LabelledImages
 from resus.segmentation.folders import read_folders

@@ -17,7 +17,7 @@ from resus.errors import ResusError
 from resus.experiments.realism import REAL_CREDIT, RealismComparison
 
 if TYPE_CHECKING:
-    from resus.experiments.sim2real import Sim2RealResult
+    from resus.experiments.sim2real.experiment import Sim2RealResult
     from resus.segmentation.folders import FolderImages
 
 RESULTS_JSON, REPORT_MD = "results.json", "report.md"

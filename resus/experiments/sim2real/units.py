@@ -18,19 +18,18 @@ from pathlib import Path
 import numpy as np
 
 from resus.execution import UnitRecord
-from resus.experiments.sim2real import (
-    CHECKPOINT,
+from resus.experiments.sim2real.few_label import (
     FROM_SIMULATION,
     RealSplit,
-    Sim2RealSettings,
     fine_tune,
     rehearsal_frames,
     vessel_scores,
 )
+from resus.experiments.sim2real.settings import Sim2RealSettings
 from resus.segmentation.folders import FolderImages
 
 FEW_LABEL_FOLDER = "few_label"
-UNIT_RECORD, EXAMPLES = "unit.json", "examples.npz"
+UNIT_RECORD, EXAMPLES, CHECKPOINT = "unit.json", "examples.npz", "checkpoint.pt"
 
 
 def images_digest(images: FolderImages) -> str:
