@@ -12,73 +12,22 @@ masks (`images/NNNN.png`, `masks/NNNN.png`, 255 = lumen). `measure` turns a set 
 - `vessels`: each vessel cross-section's shape, placement, wall, lumen and surroundings, and the
   tissue beside the vessels as dark as their lumens.
 - `line_orientation`: which way the tissue's bright lines run.
-- `measure`: one set measured; `compare`: two.
+- `measurement`: `measure`, one set measured; `compare`, two.
 - `comparison`: the table of both sets side by side.
 - `report`: realism.json, realism.md, sim_vs_real.png and histograms.png.
 """
 
-from resus.experiments.realism.comparison import TABLE, RealismComparison
-from resus.experiments.realism.images import (
-    REAL_CREDIT,
-    ImageSet,
-    imaged_region,
-    read_image_folder,
-    read_sweep_set,
-)
-from resus.experiments.realism.measure import compare, measure
-from resus.experiments.realism.report import (
-    HISTOGRAMS_PNG,
-    REALISM_JSON,
-    REALISM_MD,
-    SIM_VS_REAL_PNG,
-    write_realism_report,
-)
-from resus.experiments.realism.speckle import (
-    RAYLEIGH_LOG_STD_DB,
-    full_width_half_maximum,
-    rayleigh_grey_std,
-)
-from resus.experiments.realism.stats import (
-    MEDIAN,
-    QUANTILES,
-    RealismSettings,
-    RealismStats,
-    SpeckleStats,
-    VesselShapeStats,
-)
-from resus.experiments.realism.vessels import (
-    dark_tissue_share,
-    ellipse_fit,
-    vessel_contrasts,
-    vessel_regions,
-)
+from resus import lazy_exports
 
-__all__ = [
-    "HISTOGRAMS_PNG",
-    "MEDIAN",
-    "QUANTILES",
-    "RAYLEIGH_LOG_STD_DB",
-    "REALISM_JSON",
-    "REALISM_MD",
-    "REAL_CREDIT",
-    "SIM_VS_REAL_PNG",
-    "TABLE",
-    "ImageSet",
-    "RealismComparison",
-    "RealismSettings",
-    "RealismStats",
-    "SpeckleStats",
-    "VesselShapeStats",
-    "compare",
-    "dark_tissue_share",
-    "ellipse_fit",
-    "full_width_half_maximum",
-    "imaged_region",
-    "measure",
-    "rayleigh_grey_std",
-    "read_image_folder",
-    "read_sweep_set",
-    "vessel_contrasts",
-    "vessel_regions",
-    "write_realism_report",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    """
+comparison: TABLE RealismComparison
+images: REAL_CREDIT ImageSet imaged_region read_image_folder read_sweep_set
+measurement: compare measure
+report: HISTOGRAMS_PNG REALISM_JSON REALISM_MD SIM_VS_REAL_PNG write_realism_report
+speckle: RAYLEIGH_LOG_STD_DB full_width_half_maximum rayleigh_grey_std
+stats: MEDIAN QUANTILES RealismSettings RealismStats SpeckleStats VesselShapeStats
+vessels: dark_tissue_share ellipse_fit vessel_contrasts vessel_regions
+""",
+)

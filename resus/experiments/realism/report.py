@@ -13,7 +13,7 @@ from resus.errors import ResusError
 from resus.experiments.realism.comparison import TABLE, RealismComparison
 from resus.experiments.realism.images import REAL_CREDIT, ImageSet, imaged_region
 from resus.experiments.realism.line_orientation import ANGLE_BIN_DEGREES, LINE_SCALE, LINE_SHARE
-from resus.experiments.realism.measure import compare
+from resus.experiments.realism.measurement import compare
 from resus.experiments.realism.stats import DEPTH_BANDS, GREY_LEVELS, RealismSettings, RealismStats
 from resus.experiments.realism.vessels import ELONGATED_ASPECT
 from resus.indices import evenly_spaced

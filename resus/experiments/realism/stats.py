@@ -2,7 +2,7 @@
 
 The figures are defined where they are measured: `speckle` (grey-level speckle and its grain),
 `vessels` (the vessel cross-sections, their walls, lumens and surroundings, the dark tissue
-beside them), `line_orientation` (the tissue's bright lines) and `measure` (grey levels and
+beside them), `line_orientation` (the tissue's bright lines) and `measurement` (grey levels and
 their depth profile).
 """
 

@@ -25,56 +25,16 @@ finishes, so a rerun resumes and the figures do not depend on the engine.
 - `report`: report.md, the curve's and the examples' figures.
 """
 
-from resus.experiments.sim2real.experiment import Sim2RealResult, run_sim2real
-from resus.experiments.sim2real.few_label import (
-    FROM_SCRATCH,
-    FROM_SIMULATION,
-    INITIALISATIONS,
-    CurvePoint,
-    RealSplit,
-    Spread,
-    curve_summary,
-    fine_tune,
-    real_splits,
-    rehearsal_frames,
-    repeated_to,
-)
-from resus.experiments.sim2real.report import pretraining_verdict, write_sim2real_report
-from resus.experiments.sim2real.settings import (
-    SIM2REAL_PRESETS,
-    Sim2RealSettings,
-    get_sim2real_preset,
-)
-from resus.experiments.sim2real.subjects import (
-    off_vessel_subjects,
-    simulate_subjects,
-    subject_preset,
-    subject_sweep,
-    sweep_provenance,
-)
+from resus import lazy_exports
 
-__all__ = [
-    "FROM_SCRATCH",
-    "FROM_SIMULATION",
-    "INITIALISATIONS",
-    "SIM2REAL_PRESETS",
-    "CurvePoint",
-    "RealSplit",
-    "Sim2RealResult",
-    "Sim2RealSettings",
-    "Spread",
-    "curve_summary",
-    "fine_tune",
-    "get_sim2real_preset",
-    "off_vessel_subjects",
-    "pretraining_verdict",
-    "real_splits",
-    "rehearsal_frames",
-    "repeated_to",
-    "run_sim2real",
-    "simulate_subjects",
-    "subject_preset",
-    "subject_sweep",
-    "sweep_provenance",
-    "write_sim2real_report",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    """
+experiment: Sim2RealResult run_sim2real
+few_label: FROM_SCRATCH FROM_SIMULATION INITIALISATIONS CurvePoint RealSplit Spread
+few_label: curve_summary fine_tune real_splits rehearsal_frames repeated_to
+report: pretraining_verdict write_sim2real_report
+settings: SIM2REAL_PRESETS Sim2RealSettings get_sim2real_preset
+subjects: off_vessel_subjects simulate_subjects subject_preset subject_sweep sweep_provenance
+""",
+)
