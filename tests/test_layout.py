@@ -4,6 +4,7 @@ and `sim` a leaf that never imports `resus`."""
 import ast
 import importlib
 import inspect
+import pkgutil
 from pathlib import Path
 
 import pytest
@@ -11,7 +12,8 @@ import pytest
 REPOSITORY = Path(__file__).resolve().parents[1]
 STAGES = (
     "sweep", "acquisition", "acquisition.backends", "acquisition.calibration", "planning",
-    "reconstruction", "reslicing", "segmentation", "vessels", "experiments", "visualize", "cli",
+    "reconstruction", "reslicing", "segmentation", "vessels", "experiments",
+    "experiments.realism", "experiments.sim2real", "visualize", "cli",
 )  # fmt: skip
 
 
@@ -27,6 +29,16 @@ def test_every_stage_package_exports_what_it_names(stage: str) -> None:
     assert names, f"resus.{stage} exports nothing"
     for name in names:
         assert getattr(package, name) is not None
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_no_stage_exports_a_name_that_one_of_its_modules_has(stage: str) -> None:
+    """Importing a package's module sets the package's attribute of that name to the module,
+    so an exported function named like a module would turn into the module once that module
+    (or any import of it) had run."""
+    package = importlib.import_module(f"resus.{stage}")
+    modules = {module.name for module in pkgutil.iter_modules(package.__path__)}
+    assert not modules & set(getattr(package, "__all__", ())), f"resus.{stage}"
 
 
 def test_resus_keeps_at_most_six_top_level_modules() -> None:

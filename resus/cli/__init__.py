@@ -14,6 +14,6 @@ from resus import lazy_exports
 __getattr__, __dir__, __all__ = lazy_exports(
     __name__,
     """
-app: app main
+app: main
 """,
 )

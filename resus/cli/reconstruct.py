@@ -74,7 +74,7 @@ def register(app: typer.Typer) -> None:
         from resus.reconstruction.figures import save_slices_png
         from resus.reconstruction.grid import aabb_grid
         from resus.reconstruction.io import intensity_to_uint8, volume_suffix, write_volume
-        from resus.reconstruction.ransac_grid import ransac_grid
+        from resus.reconstruction.parallelepiped import ransac_grid
 
         parse_choice(grid_kind, "--grid", GRIDS)
         if voxels is not None and grid_kind == "aabb":

@@ -272,7 +272,7 @@ def _reconstruct(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
     from resus.reconstruction.compounding import reconstruct
     from resus.reconstruction.grid import aabb_grid
     from resus.reconstruction.io import intensity_to_uint8, write_volume
-    from resus.reconstruction.ransac_grid import ransac_grid
+    from resus.reconstruction.parallelepiped import ransac_grid
     from resus.sweep.io import read_sweep
 
     sweep = read_sweep(data.sweep)

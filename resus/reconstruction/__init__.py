@@ -1,7 +1,7 @@
 """Stage 1-2: the voxel grid of a sweep and its squared-distance-weighted compounding.
 
 - `grid`: `VolumeGrid` (origin and step vectors) and the axis-aligned box `aabb_grid`.
-- `ransac_grid`: the paper's parallelepiped fitted with RANSAC planes.
+- `parallelepiped`: the paper's volume, `ransac_grid`, fitted with RANSAC planes.
 - `compounding`: `ReconstructionSettings`, `Reconstructor` and `reconstruct` (SDW, PLUS's
   nearest-neighbour and trilinear insertion, hole filling, label channels).
 - `kernels`: the numba kernels that insert frames and fill holes.
@@ -20,6 +20,6 @@ grid: VolumeGrid aabb_grid frame_points_world
 io: intensity_to_uint8 read_volume write_volume
 figures: save_slices_png
 live: LiveVolume planned_grid
-ransac_grid: ransac_grid
+parallelepiped: ransac_grid
 """,
 )

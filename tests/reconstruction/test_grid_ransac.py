@@ -5,7 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from resus.errors import ResusError
-from resus.reconstruction.ransac_grid import ransac_grid, ransac_plane
+from resus.reconstruction.parallelepiped import ransac_grid, ransac_plane
 from sim.transforms import make_pose
 from sim.ultrasound.probe import LinearProbe
 
