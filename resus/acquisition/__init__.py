@@ -11,7 +11,8 @@ before every command, whatever the backend.
 - `trajectory`: a planned path (`resus.trajectory/1` YAML), with stops and a force profile
   where it presses; `patterns`: paths made from a few parameters (linear, fan, multipass,
   raster, compression).
-- `simulation`: scene, simulated robot and probe, trajectory -> a Sweep file.
+- `simulation`: scene, simulated robot and probe, trajectory -> a Sweep file; one sweep per
+  phantom subject, each a resumable unit.
 - `calibration/`: probe and temporal calibration.
 """
 
@@ -27,7 +28,7 @@ probe: Frame Probe
 robot: Robot RobotFault
 safety: SafetyLimits
 scanner: Scanner ScannerSettings ScanResult
-simulation: resolve_scene simulate_sweep
+simulation: SimulatedSweepJob resolve_scene simulate_subject_sweeps simulate_sweep
 trajectory: Trajectory
 """,
 )

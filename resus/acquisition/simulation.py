@@ -1,12 +1,17 @@
-"""Simulated acquisition end to end: scene, robot, probe, trajectory -> a Sweep file."""
+"""Simulated acquisition end to end: scene, robot, probe, trajectory -> a Sweep file.
+
+`SimulatedSweepJob` names one sweep in plain values (so a worker process or a Ray node can
+make it), and `simulate_subject_sweeps` makes one per phantom subject, each a resumable unit.
+"""
 
 from __future__ import annotations
 
 import dataclasses
 import re
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from resus.acquisition.backends.simulated import (
     SimulatedProbe,
@@ -22,9 +27,14 @@ from sim.fingerprint import simulator_fingerprint
 from sim.phantom import Phantom, PhantomSpec, phantom_digest
 from sim.robot.scene import load_scene_phantom
 from sim.robot.scene_config import SceneConfig, load_scene_config, scene_path
-from sim.ultrasound.scanner import ScannerPreset
+from sim.ultrasound.scanner import ScannerPreset, sweep_preset
+
+if TYPE_CHECKING:
+    from resus.execution import Executor, UnitRecord
 
 SUBJECT_ID = re.compile(r"^(?P<phantom>[^/]+)/(?P<subject>nominal|\d+)$")
+DONE_FOLDER = ".done"
+"""Under a folder of subjects' sweeps: one record per finished sweep (`simulate_subject_sweeps`)."""
 
 
 def resolve_scene(scene: str | Path, phantom: str | None, subject: int | None) -> SceneConfig:
@@ -174,3 +184,96 @@ def parse_subject_id(subject: str) -> tuple[str | None, int | None]:
         return None, None
     index = match["subject"]
     return match["phantom"], None if index == "nominal" else int(index)
+
+
+@dataclass(frozen=True)
+class SimulatedSweepJob:
+    """One simulated sweep to make, in plain values (`simulate_sweep`'s arguments by name)."""
+
+    out: Path
+    """The Sweep file to write."""
+    plan: SweepPattern | Path
+    """A sweep pattern (made over the phantom) or a trajectory YAML file (read where the job
+    runs)."""
+    scene: str | Path = "default"
+    """A scene name (`assets/scenes`) or file."""
+    phantom: str | None = None
+    """A phantom instead of the scene's own (`resolve_scene`)."""
+    subject: int | None = None
+    seed: int | None = None
+    """The phantom's seed: its anatomy's draw and its speckle (None: the spec's)."""
+    scanner: str | None = None
+    """A scanner preset (`sim.ultrasound.scanner.sweep_preset`: a name, a file, "random-N",
+    or "random", drawn for the seed and subject); None: the simulator's own settings."""
+    rigid: bool = False
+    """Image the rigid world: no deformation under the probe, no pulsation."""
+
+    def scene_config(self) -> SceneConfig:
+        """The scene with the job's phantom and subject."""
+        return resolve_scene(self.scene, self.phantom, self.subject)
+
+    def scanner_preset(self) -> ScannerPreset | None:
+        """The job's scanner preset (None: the simulator's own settings)."""
+        with simulator_errors("SimulatedSweepJob.scanner"):
+            return sweep_preset(self.scanner, self.seed, self.subject)
+
+    def key(self) -> dict[str, Any]:
+        """Everything the sweep depends on, as a cache compares it: the world and scanner
+        (`world_key`), the plan (a file's text with its path: a file edited in place makes a
+        new sweep), the seed and whether the world is rigid."""
+        plan = self.plan
+        return {
+            **world_key(self.scene_config(), self.scanner_preset()),
+            "trajectory": (
+                {"path": str(plan), "text": plan.read_text()}
+                if isinstance(plan, Path)
+                else dataclasses.asdict(plan)
+            ),
+            "seed": self.seed,
+            "rigid": self.rigid,
+        }
+
+    def run(self, *, progress: bool = True, listeners: Sequence[FrameSink] = ()) -> ScanResult:
+        """Make the sweep (`simulate_sweep`)."""
+        plan = Trajectory.from_yaml(self.plan) if isinstance(self.plan, Path) else self.plan
+        return simulate_sweep(
+            self.out,
+            self.scene_config(),
+            plan,
+            seed=self.seed,
+            preset=self.scanner_preset(),
+            progress=progress,
+            listeners=listeners,
+            rigid=self.rigid,
+        )
+
+
+def simulate_subject_sweeps(
+    job: SimulatedSweepJob, subjects: Sequence[int], folder: Path, executor: Executor
+) -> tuple[list[Path], list[Path]]:
+    """`job` once per subject into `folder/subject_KK.h5`, each a unit on `executor`, recorded
+    when it finishes under `folder/DONE_FOLDER` with its `key`, so a rerun makes only the
+    sweeps that are missing or were made otherwise: every sweep's path, and those kept."""
+    from resus.execution import run_pending
+
+    folder.mkdir(parents=True, exist_ok=True)
+    units = []
+    for k in subjects:
+        subject_job = dataclasses.replace(job, subject=k, out=folder / f"subject_{k:02d}.h5")
+        units.append((subject_job, _sweep_record(subject_job, folder / DONE_FOLDER)))
+    kept = [unit.out for unit, record in units if record.done()]
+    run_pending(executor, _make_sweep, units, "subjects", "sweep")
+    return [unit.out for unit, _ in units], kept
+
+
+def _sweep_record(job: SimulatedSweepJob, records: Path) -> UnitRecord:
+    """Where `job` records that it finished, keyed by what its sweep depends on."""
+    from resus.execution import UnitRecord
+
+    return UnitRecord(records / f"{job.out.stem}.json", job.key(), (job.out,))
+
+
+def _make_sweep(job: SimulatedSweepJob) -> tuple[str, int]:
+    """One subject's sweep, quietly (top level so worker processes can run it)."""
+    result = job.run(progress=False)
+    return str(result.path), result.frames

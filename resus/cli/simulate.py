@@ -7,7 +7,6 @@ rerun of the same command makes only the sweeps that are missing.
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -26,43 +25,7 @@ from resus.cli.plan import make_pattern
 from resus.errors import ResusError
 
 if TYPE_CHECKING:
-    from resus.execution import Executor, UnitRecord
-    from sim.ultrasound.scanner import ScannerPreset
-
-DONE_FOLDER = ".done"
-"""Under a --subjects output folder: one record per finished sweep."""
-
-
-def _simulate_one(job: dict) -> tuple[str, int]:
-    """One subject's sweep (top level so worker processes can run it)."""
-    from resus.acquisition.simulation import resolve_scene, simulate_sweep
-    from resus.acquisition.trajectory import Trajectory
-
-    scene = resolve_scene(job["scene"], job["phantom"], job["subject"])
-    preset = sweep_scanner(job.get("scanner"), job["seed"], job["subject"])
-    trajectory = job["trajectory"]
-    if isinstance(trajectory, str):
-        trajectory = Trajectory.from_yaml(trajectory)
-    result = simulate_sweep(
-        job["out"],
-        scene,
-        trajectory,
-        seed=job["seed"],
-        preset=preset,
-        progress=job["progress"],
-        listeners=job.get("listeners", ()),
-        rigid=job.get("rigid", False),
-    )
-    return str(result.path), result.frames
-
-
-def sweep_scanner(name: str | None, seed: int | None, subject: int | None) -> ScannerPreset | None:
-    """The `--scanner` preset of one sweep (`sim.ultrasound.scanner.sweep_preset`), a bad
-    name reported under the flag."""
-    from sim.ultrasound.scanner import sweep_preset
-
-    with flag_error("--scanner"):
-        return sweep_preset(name, seed, subject)
+    from resus.acquisition.patterns import SweepPattern
 
 
 def simulate(
@@ -112,8 +75,10 @@ def simulate(
     igtl_host: IgtlHostOption = "127.0.0.1",
 ) -> None:
     """Scan a simulated phantom with the simulated UR3e and write Sweeps with labels."""
+    from sim.ultrasound.scanner import sweep_preset
+
     if trajectory == "linear":
-        plan: object = make_pattern(
+        plan: SweepPattern | Path = make_pattern(
             "linear",
             {
                 "start": parse_numbers(start, "--start", count=2),
@@ -126,40 +91,37 @@ def simulate(
             },
         )
     elif Path(trajectory).is_file():
-        plan = trajectory
+        plan = Path(trajectory)
     else:
         raise ResusError("--trajectory: neither 'linear' nor an existing file", trajectory)
-    sweep_scanner(scanner, seed, subject)  # a bad name fails here, before any work
+    with flag_error("--scanner"):  # a bad preset fails here, before any work
+        sweep_preset(scanner, seed, subject)
     check_executor_flags(executor, address)
-    base = {
-        "scene": scene,
-        "phantom": phantom,
-        "trajectory": plan,
-        "seed": seed,
-        "scanner": scanner,
-        "rigid": rigid,
-    }
     if igtl is not None and subjects is not None:
         raise ResusError("--igtl streams one sweep: not with --subjects")
     if subjects is None and executor != "local":
         raise ResusError(f"--executor {executor} runs the sweeps of --subjects: one runs here")
+    from resus.acquisition.simulation import SimulatedSweepJob, simulate_subject_sweeps
+
+    job = SimulatedSweepJob(
+        out, plan, scene, phantom, subject, seed=seed, scanner=scanner, rigid=rigid
+    )
     kept: list[Path] = []
     if subjects is None:
         if not out.parent.is_dir():
             raise ResusError("output folder does not exist", out.parent)
-        job = {**base, "subject": subject, "out": out, "progress": True}
         if igtl is None:
-            _simulate_one(job)
+            job.run()
         else:
             with _igtl_server(igtl, igtl_host) as server:
-                _simulate_one({**job, "listeners": [server]})
+                job.run(listeners=[server])
         outputs = [out]
     else:
         from resus.execution import make_executor
 
         numbers = parse_index_set(subjects, "--subjects")
         with make_executor(executor, jobs, address) as engine:
-            outputs, kept = _simulate_many(base, numbers, out, engine)
+            outputs, kept = simulate_subject_sweeps(job, numbers, out, engine)
     for path in outputs:
         if path in kept:
             typer.echo(f"kept {path} (made earlier, same settings)")
@@ -187,44 +149,6 @@ def _igtl_server(port: int, host: str):
         f"{TRANSFORM_NAME} (mm)"
     )
     return server
-
-
-def _simulate_many(
-    base: dict, subjects: list[int], folder: Path, executor: Executor
-) -> tuple[list[Path], list[Path]]:
-    """One sweep per subject into `folder`, each a unit on `executor` unless an earlier run
-    made it with the same settings: every sweep's path, and those that were kept."""
-    from resus.execution import run_pending
-
-    folder.mkdir(parents=True, exist_ok=True)
-    units = []
-    for k in subjects:
-        job = {**base, "subject": k, "out": folder / f"subject_{k:02d}.h5", "progress": False}
-        units.append((job, _sweep_record(job, folder / DONE_FOLDER / f"subject_{k:02d}.json")))
-    kept = [job["out"] for job, record in units if record.done()]
-    run_pending(executor, _simulate_one, units, "subjects", "sweep")
-    return [job["out"] for job, _ in units], kept
-
-
-def _sweep_record(job: dict, path: Path) -> UnitRecord:
-    """The record of one sweep of `--subjects`: everything the sweep depends on (scene,
-    phantom, scanner and simulator as `world_key` knows them, a plan file's text with its
-    path: a file edited in place makes a new sweep)."""
-    from resus.acquisition.simulation import resolve_scene, world_key
-    from resus.execution import UnitRecord
-
-    plan = job["trajectory"]  # a LinearPattern or the path of a trajectory file
-    scene = resolve_scene(job["scene"], job["phantom"], job["subject"])
-    key = {
-        **world_key(scene, sweep_scanner(job["scanner"], job["seed"], job["subject"])),
-        "trajectory": (
-            {"path": plan, "text": Path(plan).read_text()}
-            if isinstance(plan, str)
-            else dataclasses.asdict(plan)
-        ),
-        **{name: job[name] for name in ("seed", "rigid")},
-    }
-    return UnitRecord(path, key, (job["out"],))
 
 
 def register(app: typer.Typer) -> None:

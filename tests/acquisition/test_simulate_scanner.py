@@ -1,4 +1,5 @@
-"""`resus simulate`: a scanner preset reaches the Sweep file; what a `--subjects` rerun keeps."""
+"""`resus simulate`: a scanner preset reaches the Sweep file; what a `--subjects` rerun keeps,
+through the command and through the library's `simulate_subject_sweeps`."""
 
 from __future__ import annotations
 
@@ -8,11 +9,20 @@ import numpy as np
 import pytest
 from cli_runner import run_main
 
-from resus.acquisition.simulation import resolve_scene, simulated_truth
+from resus.acquisition.patterns import LinearPattern
+from resus.acquisition.simulation import (
+    DONE_FOLDER,
+    SimulatedSweepJob,
+    phantom_spec,
+    resolve_scene,
+    simulate_subject_sweeps,
+    simulated_truth,
+)
 from resus.errors import ResusError
+from resus.execution import LocalExecutor
 from resus.sweep.io import read_sweep
 from sim.fingerprint import simulator_fingerprint
-from sim.phantom import phantom_digest
+from sim.phantom import Phantom, phantom_digest
 from sim.ultrasound.scanner import scanner_preset
 
 SHORT = ("--length", "0.006", "--speed", "0.02", "--frame-rate", "10", "--force", "0")
@@ -97,3 +107,24 @@ def test_a_scanner_file_is_a_preset_and_an_edited_one_another(monkeypatch, capsy
     status, printed, _ = run_main(monkeypatch, capsys, *args)
     assert status == 0 and printed.startswith("wrote ")
     assert read_sweep(out / "subject_00.h5").provenance["scanner_knobs"]["gain_db"] == 31.0
+
+
+def test_a_sweep_job_per_subject_is_kept_until_its_plan_file_changes(tmp_path) -> None:
+    """The library's runner, without the command line: one sweep per subject, a rerun keeps
+    them, and a trajectory file edited in place (same path) makes them again."""
+    pattern = LinearPattern(length=0.006, speed=0.02, frame_rate=10.0, contact_force=None)
+    single = SimulatedSweepJob(tmp_path / "one.h5", pattern, subject=1, seed=3)
+    assert single.run(progress=False).frames == len(read_sweep(single.out).timestamps)
+    scene, plan = single.scene_config(), tmp_path / "plan.yaml"
+    pattern.trajectory(Phantom(phantom_spec(scene, 3)), scene.phantom_to_base).to_yaml(plan)
+
+    job = SimulatedSweepJob(tmp_path / "unused.h5", plan, seed=3)
+    folder, in_process = tmp_path / "subjects", LocalExecutor(1)
+    paths, kept = simulate_subject_sweeps(job, [0, 2], folder, in_process)
+    assert paths == [folder / "subject_00.h5", folder / "subject_02.h5"] and kept == []
+    assert [read_sweep(path).subject for path in paths] == ["default/0", "default/2"]
+    record = json.loads((folder / DONE_FOLDER / "subject_02.json").read_text())
+    assert record["key"]["trajectory"] == {"path": str(plan), "text": plan.read_text()}
+    assert simulate_subject_sweeps(job, [0, 2], folder, in_process)[1] == paths
+    plan.write_text(plan.read_text() + "# edited in place\n")
+    assert simulate_subject_sweeps(job, [0, 2], folder, in_process)[1] == []
