@@ -25,7 +25,7 @@ factory: make_probe make_robot
 patterns: PATTERNS CompressionPattern FanPattern LinearPattern MultipassPattern
 patterns: RasterPattern SweepPattern
 probe: Frame Probe
-robot: Robot RobotFault
+robot: Robot RobotFault host_clock_offset
 safety: SafetyLimits
 scanner: Scanner ScannerSettings ScanResult
 simulation: SimulatedSweepJob resolve_scene simulate_subject_sweeps simulate_sweep

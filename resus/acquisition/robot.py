@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from abc import ABC, abstractmethod
 
 import numpy as np
@@ -78,6 +79,16 @@ class Robot(ABC):
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+def host_clock_offset(robot: Robot) -> float:
+    """The robot's clock minus this host's monotonic clock (s), read back to back: what
+    `ScannerSettings.time_offset` adds to the times of a probe that stamps its frames on the
+    host (`VideoProbe`, `IgtlProbe`), before the latency temporal calibration finds."""
+    before = time.monotonic()
+    robot_time = robot.time()
+    after = time.monotonic()
+    return robot_time - 0.5 * (before + after)
 
 
 class RobotFault(ResusError):

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import contextlib
 import sys
-import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -158,14 +157,6 @@ def confirm_motion(assume_yes: bool) -> None:
         raise ResusError("scan cancelled; the robot did not move")
 
 
-def robot_minus_probe_clock(robot) -> float:
-    """Robot clock minus the host's monotonic clock, sampled back to back (s)."""
-    before = time.monotonic()
-    robot_time = robot.time()
-    after = time.monotonic()
-    return robot_time - 0.5 * (before + after)
-
-
 def scan(
     robot: Annotated[
         str, typer.Option(help="'sim' (in-process MuJoCo UR3e) or the UR controller's address.")
@@ -221,7 +212,7 @@ def scan(
 ) -> None:
     """Scan along a planned trajectory and record a Sweep, watching it live in rerun."""
     from resus.acquisition.factory import SimulatedProbeConfig, make_probe, make_robot
-    from resus.acquisition.robot import RobotFault
+    from resus.acquisition.robot import RobotFault, host_clock_offset
     from resus.acquisition.safety import SafetyLimits
     from resus.acquisition.scanner import Scanner, ScannerSettings
     from resus.acquisition.simulation import resolve_scene, subject_id
@@ -264,7 +255,7 @@ def scan(
             devices.callback(probe_device.close)
             offset = time_offset
             if not simulated:
-                offset += robot_minus_probe_clock(robot_device)
+                offset += host_clock_offset(robot_device)
             typer.echo(describe_plan(plan, trajectory, limits, robot_device.tcp_pose(), probe))
             settings = ScannerSettings(
                 time_offset=offset, approach_speed=approach_speed, progress=progress

@@ -5,6 +5,7 @@ Real parts throughout: the MuJoCo UR3e, the synthetic ultrasound, the HDF5 write
 
 import dataclasses
 import re
+import time
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from resus.acquisition.backends.simulated import (
     SimulatedRobot,
 )
 from resus.acquisition.patterns import linear_sweep
+from resus.acquisition.robot import host_clock_offset
 from resus.acquisition.safety import SafetyLimits, SafetyViolation
 from resus.acquisition.scanner import ScanAborted, Scanner, ScannerSettings
 from resus.errors import ResusError
@@ -195,3 +197,13 @@ def test_a_live_rerun_listener_sees_every_recorded_frame(tmp_path) -> None:
     recording = Recording(rrd)
     assert logger.count == len(sweep)
     np.testing.assert_allclose(recording.times("/frame/image", "time"), sweep.timestamps)
+
+
+def test_host_clock_offset_puts_the_hosts_clock_on_the_robots() -> None:
+    """The simulated robot's clock is the simulation's (0 at the start, still between
+    commands), so the offset is minus the host's monotonic time when it was read."""
+    robot = SimulatedRobot()
+    before = time.monotonic()
+    offset = host_clock_offset(robot)
+    after = time.monotonic()
+    assert robot.time() - after <= offset <= robot.time() - before

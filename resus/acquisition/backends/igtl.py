@@ -5,8 +5,9 @@ PLUS (PlusServer) streams each tracked frame as an IMAGE message, by default `Im
 tool, e.g. `ProbeToReference`, all stamped with the frame's acquisition time. `IgtlProbe`
 connects as a client and turns every IMAGE of its name into a `Frame`, stamped on `clock`
 (the host's monotonic clock) the moment the message's header arrives, like `VideoProbe`: the
-scanner pairs it with the robot's pose through `ScannerSettings.time_offset`, so the robot,
-not the tracker, places the frames in the Sweep.
+scanner pairs it with the robot's pose through `ScannerSettings.time_offset` (which starts from
+`resus.acquisition.robot.host_clock_offset`), so the robot, not the tracker, places the frames
+in the Sweep.
 
 The tracker still has its say: the TRANSFORM with the same timestamp as an IMAGE is kept with
 that frame (`TrackedFrame.tracker_pose`, metres) and in `tracker_track()`, a second pose

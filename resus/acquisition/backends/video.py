@@ -9,8 +9,8 @@ the scanner's screen that holds the B-mode image.
 
 Clock: timestamps are on the host's monotonic clock, not the robot's. The scanner maps them
 with `ScannerSettings.time_offset` = (robot clock - monotonic clock, measured once at the
-start) + the video latency correction found by temporal calibration (`resus calibrate-time`);
-`resus scan` does both.
+start: `resus.acquisition.robot.host_clock_offset`) + the video latency correction found by
+temporal calibration (`resus calibrate-time`); `resus scan` does both.
 """
 
 from __future__ import annotations
