@@ -57,62 +57,14 @@ def _present(sweep: Sweep, names: tuple[str, ...]) -> str:
     return ", ".join(name for name in names if getattr(sweep, name) is not None)
 
 
-def _describe(path: Path) -> list[tuple[str, str]]:
-    """(field, value) lines describing the sweep file at `path`, reading no frame images."""
-    import numpy as np
-
-    from resus.sweep.io import SweepReader
-    from resus.sweep.model import pixel_spacing, pixels_to_world
-
-    with SweepReader(path) as sweep:
-        rows, cols = sweep.frame_shape
-        spacing = np.array(pixel_spacing(sweep.image_to_probe)) * 1e3
-        optional = [
-            f"labels ({', '.join(sweep.label_names)})" if sweep.has_labels else "",
-            "wrench" if sweep.wrench is not None else "",
-            "joint positions" if sweep.joint_positions is not None else "",
-        ]
-        lines = [
-            ("file", str(path)),
-            ("frames", str(len(sweep))),
-            ("image size", f"{cols} x {rows} px (width x height)"),
-            ("pixel spacing", f"{spacing[0]:.4f} x {spacing[1]:.4f} mm (column x row)"),
-        ]
-        if len(sweep):
-            travel = np.diff(sweep.probe_to_base[:, :3, 3], axis=0)
-            centres = pixels_to_world(
-                sweep.probe_to_base,
-                sweep.image_to_probe,
-                np.array((cols - 1) / 2),
-                np.array((rows - 1) / 2),
-            )
-            steps = np.linalg.norm(np.diff(centres, axis=0), axis=-1) * 1e3
-            lines += [
-                ("duration", f"{sweep.timestamps[-1] - sweep.timestamps[0]:.3f} s"),
-                ("path length", f"{np.linalg.norm(travel, axis=-1).sum() * 1e3:.2f} mm (probe)"),
-                (
-                    "frame spacing",
-                    f"mean {steps.mean():.3f}, min {steps.min():.3f}, max {steps.max():.3f} mm "
-                    "(between frame centres)"
-                    if len(steps)
-                    else "n/a (one frame)",
-                ),
-            ]
-        lines += [
-            ("source", sweep.source),
-            ("subject", sweep.subject or "(none)"),
-            ("created", sweep.created),
-            ("optional data", "; ".join(item for item in optional if item) or "none"),
-        ]
-    return lines
-
-
 @sweep_app.command("info")
 def info_command(
     sweep_path: SweepArgument,
 ) -> None:
     """Frames, image size, spacing, path length, frame spacing, duration and contents."""
-    lines = _describe(sweep_path)
+    from resus.sweep.summary import summarize_sweep
+
+    lines = summarize_sweep(sweep_path).lines()
     width = max(len(name) for name, _ in lines)
     for name, value in lines:
         typer.echo(f"{name:<{width}}  {value}")

@@ -8,6 +8,7 @@
 - `igtl`: frames out over OpenIGTLink as PLUS sends them (live, or a file replayed).
 - `cvat`: CVAT segmentation masks (or plain label PNGs) in and out as a sweep's labels.
 - `preview`: a PNG contact sheet of evenly chosen frames.
+- `summary`: what a sweep file holds, in numbers (`resus sweep info`).
 - `images`: grey, BGR(A) or RGB(A) images to 8-bit grey, for every path into a Sweep.
 - `timestamps`: what "now" is in every file the testbed writes (the clock, or
   SOURCE_DATE_EPOCH's time for byte-identical reruns).
@@ -26,5 +27,6 @@ model: FrameSink Sweep SweepError SweepFrame pixel_spacing pixels_to_world
 plus: export_plus_sequence import_plus_sequence read_plus_calibration write_plus_calibration
 preview: save_contact_sheet
 ros: RosImport export_ros import_ros
+summary: SweepSummary summarize_sweep
 """,
 )

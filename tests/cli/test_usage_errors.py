@@ -16,7 +16,6 @@ import typer
 from cli_runner import resus, run_main
 
 from resus import __version__
-from resus.cli import sweep as sweep_cli
 from resus.cli.app import app
 
 
@@ -215,7 +214,7 @@ def test_ctrl_c_is_one_line_and_status_130(monkeypatch, capsys, tmp_path):
     def interrupted(path):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(sweep_cli, "_describe", interrupted)
+    monkeypatch.setattr("resus.sweep.summary.summarize_sweep", interrupted)
     status, _, err = run_main(monkeypatch, capsys, "sweep", "info", tmp_path / "s.h5")
     assert status == 130 and err == "error: interrupted\n"
 
