@@ -23,8 +23,6 @@ if TYPE_CHECKING:
     from resus.sweep.model import Sweep
 
 MAX_RESLICES = 200
-GRID_TOLERANCE = 1e-6
-"""Metres: volume files round positions, so grids this close are the same grid."""
 
 
 def register(app: typer.Typer) -> None:
@@ -156,17 +154,10 @@ def _read_volumes(volume_path: Path, labels_path: Path | None):
     """(volume, grid, labels or None) from the files, labels checked to lie on the grid."""
     import numpy as np
 
-    from resus.reconstruction.io import read_volume
+    from resus.reconstruction.io import read_label_volume, read_volume
 
     array, grid, _ = read_volume(volume_path)
     if labels_path is None:
         return array, grid, None
-    label_array, label_grid, _ = read_volume(labels_path)
-    same_grid = (
-        label_grid.shape == grid.shape
-        and np.allclose(label_grid.origin, grid.origin, atol=GRID_TOLERANCE)
-        and np.allclose(label_grid.axes, grid.axes, atol=GRID_TOLERANCE)
-    )
-    if not same_grid:
-        raise ResusError("label volume is not on the volume's grid", labels_path)
-    return array, grid, label_array.astype(np.uint8)
+    labels, _ = read_label_volume(labels_path, grid)
+    return array, grid, labels.astype(np.uint8)

@@ -17,7 +17,7 @@ __getattr__, __dir__, __all__ = lazy_exports(
     """
 compounding: ReconstructedVolume ReconstructionSettings Reconstructor reconstruct
 grid: VolumeGrid aabb_grid frame_points_world
-io: intensity_to_uint8 read_volume write_volume
+io: intensity_to_uint8 read_label_volume read_volume write_volume
 figures: save_slices_png
 live: LiveVolume planned_grid
 parallelepiped: ransac_grid

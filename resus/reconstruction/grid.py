@@ -18,6 +18,9 @@ import numpy as np
 
 from resus.errors import ResusError
 
+FILE_POSITION_TOLERANCE = 1e-6
+"""Metres: volume files round positions, so grids this close put their voxels alike."""
+
 
 @dataclass(frozen=True)
 class VolumeGrid:
@@ -94,6 +97,14 @@ class VolumeGrid:
     def bytes_needed(self, bytes_per_voxel: int) -> int:
         """Memory for arrays totalling `bytes_per_voxel` bytes on each voxel."""
         return self.n_voxels * bytes_per_voxel
+
+    def places_like(self, other: VolumeGrid, tolerance: float = FILE_POSITION_TOLERANCE) -> bool:
+        """Whether `other` puts its voxels where this grid does: origins and axes equal to
+        `tolerance` metres (`numpy.allclose`), the shapes aside."""
+        return bool(
+            np.allclose(self.origin, other.origin, atol=tolerance)
+            and np.allclose(self.axes, other.axes, atol=tolerance)
+        )
 
     def describe(self) -> str:
         """One line: shape, spacing in mm, origin in mm."""

@@ -151,6 +151,19 @@ def read_volume(path: str | Path) -> tuple[np.ndarray, VolumeGrid, list[str] | N
     return np.ascontiguousarray(array), grid, names.split(",") if names else None
 
 
+def read_label_volume(path: str | Path, grid: VolumeGrid) -> tuple[np.ndarray, list[str] | None]:
+    """The label volume at `path` (classes, label names), checked to lie on `grid`, the grid
+    of the intensity volume it labels."""
+    labels, label_grid, names = read_volume(path)
+    if label_grid.shape != grid.shape:
+        raise ResusError(
+            f"labels shape {label_grid.shape} differs from the volume's {grid.shape}", path
+        )
+    if not grid.places_like(label_grid):
+        raise ResusError("label volume is not on the volume's grid (origin or axes differ)", path)
+    return labels, names
+
+
 def volume_subject(path: str | Path) -> str | None:
     """The subject of the sweep a volume was reconstructed from, if its header records one
     (the header alone is read)."""

@@ -1,5 +1,6 @@
 """Volume files: NRRD and MetaImage round trips in millimetres, PNG slices."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -8,7 +9,13 @@ import pytest
 from resus.errors import ResusError
 from resus.reconstruction.figures import save_slices_png
 from resus.reconstruction.grid import VolumeGrid
-from resus.reconstruction.io import intensity_to_uint8, read_volume, volume_subject, write_volume
+from resus.reconstruction.io import (
+    intensity_to_uint8,
+    read_label_volume,
+    read_volume,
+    volume_subject,
+    write_volume,
+)
 
 SKEWED = VolumeGrid(
     origin=(0.012, -0.034, 0.056),
@@ -29,6 +36,31 @@ def test_round_trip_keeps_values_and_geometry(tmp_path: Path, suffix: str) -> No
     assert read_names == names and volume_subject(path) == "default/3"
     bare = write_volume(tmp_path / f"bare{suffix}", volume, SKEWED)
     assert volume_subject(bare) is None
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"origin": SKEWED.origin + np.array([0.0, 0.0, 2e-6])}, "not on the volume's grid"),
+        ({"axes": SKEWED.axes * 1.01}, "not on the volume's grid"),
+        ({"shape": (7, 5, 3)}, "labels shape (7, 5, 3) differs from the volume's (7, 5, 4)"),
+    ],
+)
+def test_a_label_volume_must_lie_on_its_volumes_grid(tmp_path: Path, change, message) -> None:
+    classes = np.random.default_rng(1).integers(0, 3, size=SKEWED.shape, dtype=np.uint8)
+    names = ["background", "artery", "vein"]
+    on_grid = write_volume(tmp_path / "labels.nrrd", classes, SKEWED, names)
+    labels, read_names = read_label_volume(on_grid, SKEWED)
+    np.testing.assert_array_equal(labels, classes)
+    assert read_names == names
+    # written in millimetres to six significant digits or so: a hair off is the same grid
+    assert SKEWED.places_like(VolumeGrid(SKEWED.origin + 1e-7, SKEWED.axes, SKEWED.shape))
+    other = VolumeGrid(**{"origin": SKEWED.origin, "axes": SKEWED.axes, "shape": SKEWED.shape,
+                          **change})  # fmt: skip
+    elsewhere = write_volume(tmp_path / "other.nrrd", np.zeros(other.shape, np.uint8), other)
+    with pytest.raises(ResusError, match=re.escape(message)) as error:
+        read_label_volume(elsewhere, SKEWED)
+    assert "other.nrrd" in str(error.value)
 
 
 def test_nrrd_header_is_lps_millimetres(tmp_path: Path) -> None:
