@@ -20,9 +20,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 from resus.execution import Executor, LocalExecutor, RayExecutor, start_local_ray
+from resus.execution.executor import available_cores
 from resus.experiments.data import prepare_subjects
 from resus.experiments.tables import QUICK_EXPERIMENT
-from resus.workers import available_cores
 
 
 def best_seconds(run: Callable[[], object], repeats: int) -> float:

@@ -2,7 +2,8 @@
 
 - `executor`: the `Executor` interface (`map(function, items, desc, unit, resources)`, in
   order, one progress bar), per-unit `Resources` (CPUs, a GPU fraction), `make_executor`
-  by name ("local" or "ray"), and the cores granted to the unit running in a worker.
+  by name ("local" or "ray"), the cores this process may use and those granted to the unit
+  running in a worker.
 - `local`: `LocalExecutor`, spawned worker processes (the default).
 - `ray_cluster`: `RayExecutor`, Ray tasks on a cluster or on a Ray started on 127.0.0.1.
 - `units`: resumable units, each finished one recorded with the settings it ran with.
@@ -13,6 +14,7 @@ from resus.execution.executor import (
     ONE_CPU,
     Executor,
     Resources,
+    available_cores,
     check_executor,
     grant_cpus,
     granted_cpus,
@@ -39,6 +41,7 @@ __all__ = [
     "Resources",
     "UnitRecord",
     "as_json",
+    "available_cores",
     "check_address",
     "check_executor",
     "file_digest",

@@ -9,6 +9,7 @@ command's `--executor local|ray [--address ...]` is all that changes between the
 from __future__ import annotations
 
 import math
+import os
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -45,6 +46,14 @@ class Resources:
 
 
 ONE_CPU = Resources()
+
+
+def available_cores() -> int:
+    """CPU cores this process may run on (its affinity mask where the OS has one)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
 
 _granted_cpus: int | None = None
 """CPU cores the running unit was granted, in a worker process; None in the caller's own."""

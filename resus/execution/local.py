@@ -14,8 +14,14 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from typing import TypeVar
 
-from resus.execution.executor import ONE_CPU, Executor, Resources, WorkerLost, grant_cpus
-from resus.workers import available_cores
+from resus.execution.executor import (
+    ONE_CPU,
+    Executor,
+    Resources,
+    WorkerLost,
+    available_cores,
+    grant_cpus,
+)
 
 Item = TypeVar("Item")
 Result = TypeVar("Result")

@@ -33,6 +33,7 @@ import numpy as np
 from resus.acquisition.patterns import LinearPattern
 from resus.errors import ResusError
 from resus.execution import Executor, Resources, make_executor
+from resus.execution.executor import available_cores
 from resus.experiments.data import (
     ScanSettings,
     SubjectData,
@@ -66,7 +67,6 @@ from resus.experiments.training_units import (
 from resus.reslicing.reslice import ResliceSettings
 from resus.segmentation.metrics import VesselIoU
 from resus.segmentation.presets import PAPER, QUICK, TrainingPreset, pick_preset
-from resus.workers import available_cores
 from sim.labels import ARTERY, VEIN
 
 

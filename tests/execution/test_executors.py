@@ -27,7 +27,7 @@ from resus.execution import (
     make_executor,
     run_pending,
 )
-from resus.workers import available_cores
+from resus.execution.executor import available_cores
 
 
 def die(_: object) -> None:

@@ -30,7 +30,7 @@ from resus.acquisition.backends.simulated import SimulatedProbeConfig
 from resus.acquisition.probe import Frame, SyntheticProbe
 from resus.acquisition.robot import Robot
 from resus.errors import ResusError
-from resus.workers import available_cores
+from resus.execution.executor import available_cores
 from sim.phantom import Phantom, PhantomSpec
 from sim.robot.scene_config import SceneConfig
 from sim.transforms import invert_pose
