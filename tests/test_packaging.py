@@ -1,4 +1,5 @@
-"""The wheel carries everything an installed `resus` needs: the assets as package data."""
+"""The wheel carries everything an installed `resus` needs: every module of `resus` and `sim`
+(subpackages included), and the assets as package data."""
 
 import subprocess
 import sys
@@ -25,7 +26,12 @@ def test_wheel_ships_every_asset_as_package_data(tmp_path: Path) -> None:
         if path.is_file() and path.suffix in {".xml", ".yaml", ".md", ".py"}
     }
     assert expected and expected <= shipped, sorted(expected - shipped)
-    assert "resus/__main__.py" in shipped
+    sources = {
+        path.relative_to(REPOSITORY).as_posix()
+        for package in ("resus", "sim")
+        for path in (REPOSITORY / package).rglob("*.py")
+    }
+    assert "resus/__main__.py" in sources and sources <= shipped, sorted(sources - shipped)
 
 
 def test_assets_are_found_through_the_package() -> None:
