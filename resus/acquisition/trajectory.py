@@ -59,9 +59,9 @@ def _pairs(values: object, name: str) -> tuple[tuple[float, float], ...]:
     try:
         pairs = tuple((float(a), float(b)) for a, b in values)  # type: ignore[attr-defined]
     except (TypeError, ValueError):
-        raise ResusError(f"trajectory {name} must be a list of pairs, got {values!r}") from None
+        raise ResusError(f"Trajectory.{name} must be a list of pairs, got {values!r}") from None
     if not np.all(np.isfinite(pairs)):
-        raise ResusError(f"trajectory {name} must be finite numbers, got {list(pairs)}")
+        raise ResusError(f"Trajectory.{name} must be finite numbers, got {list(pairs)}")
     return pairs
 
 
@@ -103,19 +103,21 @@ class Trajectory:
         waypoints = np.asarray(self.waypoints, dtype=np.float64)
         object.__setattr__(self, "waypoints", waypoints)
         if waypoints.ndim != 3 or waypoints.shape[1:] != (4, 4) or len(waypoints) < 2:
-            raise ResusError(f"trajectory needs at least 2 waypoints of 4x4, got {waypoints.shape}")
+            raise ResusError(
+                f"Trajectory.waypoints must be at least 2 poses of 4x4, got {waypoints.shape}"
+            )
         bad = np.flatnonzero(~is_rigid(waypoints))
         if bad.size:
-            raise ResusError(f"trajectory waypoint {bad[0]} is not a rigid transform")
+            raise ResusError(f"Trajectory.waypoints[{bad[0]}] is not a rigid transform")
         for name in ("speed", "acceleration", "frame_rate", "rotation_radius"):
             if not getattr(self, name) > 0:
-                raise ResusError(f"trajectory {name} must be positive, got {getattr(self, name)}")
+                raise ResusError(f"Trajectory.{name} must be positive, got {getattr(self, name)}")
         if self.contact_force is not None and not self.contact_force > 0:
-            raise ResusError(f"trajectory contact_force must be positive, got {self.contact_force}")
+            raise ResusError(f"Trajectory.contact_force must be positive, got {self.contact_force}")
         if self.approach_height < 0:
-            raise ResusError(f"trajectory approach_height must be >= 0, got {self.approach_height}")
+            raise ResusError(f"Trajectory.approach_height must be >= 0, got {self.approach_height}")
         if self.path_length <= 0:
-            raise ResusError("trajectory waypoints do not move: path length is zero")
+            raise ResusError("Trajectory.waypoints do not move: the path length is zero")
         object.__setattr__(self, "stops", self._checked_stops())
         if self.imaging_segments is not None:
             object.__setattr__(self, "imaging_segments", self._checked_segments())
@@ -123,7 +125,9 @@ class Trajectory:
             object.__setattr__(self, "force_profile", self._checked_force_profile())
         repeated = np.flatnonzero(self.segment_lengths <= 0)
         if repeated.size:
-            raise ResusError(f"trajectory waypoints {repeated[0]} and {repeated[0] + 1} coincide")
+            raise ResusError(
+                f"Trajectory.waypoints[{repeated[0]}] and [{repeated[0] + 1}] coincide"
+            )
 
     def _within_path(self, arc: np.ndarray) -> bool:
         """Whether every arc length lies on the path (to ARC_TOLERANCE)."""
@@ -134,11 +138,11 @@ class Trajectory:
         arcs = np.array([arc for arc, _ in stops])
         if stops and (np.any(np.diff(arcs) <= ARC_TOLERANCE) or not self._within_path(arcs)):
             raise ResusError(
-                "trajectory stops must lie at increasing arc lengths within "
+                "Trajectory.stops must lie at increasing arc lengths within "
                 f"[0, {self.path_length:.4f}] m, got {list(stops)}"
             )
         if any(not seconds > 0 for _, seconds in stops):
-            raise ResusError(f"trajectory stops must last a positive time (s), got {list(stops)}")
+            raise ResusError(f"Trajectory.stops must last a positive time (s), got {list(stops)}")
         return tuple((float(np.clip(arc, 0.0, self.path_length)), s) for arc, s in stops)
 
     def _checked_segments(self) -> tuple[tuple[float, float], ...]:
@@ -154,7 +158,7 @@ class Trajectory:
             or not at_stops
         ):
             raise ResusError(
-                "trajectory imaging_segments must be increasing, non-overlapping arc-length "
+                "Trajectory.imaging_segments must be increasing, non-overlapping arc-length "
                 f"intervals within [0, {self.path_length:.4f}] m, of zero length only at a "
                 f"stop, got {list(segments)}"
             )
@@ -163,18 +167,18 @@ class Trajectory:
     def _checked_force_profile(self) -> tuple[tuple[float, float], ...]:
         knots = _pairs(self.force_profile, "force_profile")
         if self.contact_force is None:
-            raise ResusError("trajectory force_profile needs force mode: set contact_force")
+            raise ResusError("Trajectory.force_profile needs force mode: set contact_force")
         times = np.array([t for t, _ in knots])
         if not knots or times[0] < 0 or np.any(np.diff(times) <= 0):
             raise ResusError(
-                "trajectory force_profile must be (time s, force N) knots at increasing "
+                "Trajectory.force_profile must be (time s, force N) knots at increasing "
                 f"times >= 0, got {list(knots)}"
             )
         if any(not force > 0 for _, force in knots):
-            raise ResusError(f"trajectory force_profile forces must be positive, got {list(knots)}")
+            raise ResusError(f"Trajectory.force_profile forces must be positive, got {list(knots)}")
         if abs(knots[0][1] - self.contact_force) > 1e-9:
             raise ResusError(
-                f"trajectory force_profile starts at {knots[0][1]} N, not at contact_force "
+                f"Trajectory.force_profile starts at {knots[0][1]} N, not at contact_force "
                 f"{self.contact_force} N (the force the probe settles at before the path)"
             )
         return knots

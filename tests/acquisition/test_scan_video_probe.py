@@ -104,6 +104,15 @@ def test_bad_calibration_is_one_line_naming_the_file(tmp_path, fields, message):
     assert str(error.value).startswith(path) and "\n" not in str(error.value)
 
 
+def test_a_calibration_built_in_code_names_its_fields() -> None:
+    with pytest.raises(ResusError, match=r"^ProbeCalibration needs exactly one .*, got neither"):
+        ProbeCalibration()
+    with pytest.raises(ResusError, match=r"^ProbeCalibration needs exactly one .*, got both"):
+        ProbeCalibration(pixel_spacing=(1e-4, 1e-4), matrix=np.eye(4))
+    with pytest.raises(ResusError, match=r"^ProbeCalibration\.pixel_spacing must be positive"):
+        ProbeCalibration(pixel_spacing=(1e-4, 0.0))
+
+
 def test_bad_source_or_crop_is_a_clear_error(video, tmp_path):
     calibration = calibration_file(tmp_path, pixel_spacing=[1e-4, 1e-4])
     with pytest.raises(ResusError, match=r"video source '.*missing\.avi' cannot be opened"):

@@ -82,9 +82,13 @@ def test_bad_files_name_the_file_and_problem(tmp_path, content: str, message: st
         Trajectory.from_yaml(tmp_path / "missing.yaml")
 
 
-def test_rejects_degenerate_paths() -> None:
+def test_rejects_degenerate_paths_naming_the_field() -> None:
     pose = make_pose(DOWN, [0.3, 0.0, 0.1])
-    with pytest.raises(ResusError, match="path length is zero"):
+    with pytest.raises(ResusError, match=r"^Trajectory\.waypoints do not move"):
         Trajectory(waypoints=np.stack([pose, pose]))
-    with pytest.raises(ResusError, match="speed must be positive"):
+    with pytest.raises(ResusError, match=r"^Trajectory\.speed must be positive, got 0\.0"):
         straight(speed=0.0)
+    sheared = pose.copy()
+    sheared[0, 1] = 0.5
+    with pytest.raises(ResusError, match=r"^Trajectory\.waypoints\[1\] is not a rigid transform"):
+        Trajectory(waypoints=np.stack([pose, sheared]))

@@ -60,11 +60,16 @@ class ProbeCalibration:
 
     def __post_init__(self) -> None:
         if (self.pixel_spacing is None) == (self.matrix is None):
-            raise ResusError("a probe calibration needs exactly one of pixel spacing or matrix")
+            raise ResusError(
+                "ProbeCalibration needs exactly one of pixel_spacing and matrix, got "
+                f"{'both' if self.matrix is not None else 'neither'}"
+            )
         if self.pixel_spacing is not None and not all(
             np.isfinite(s) and s > 0 for s in self.pixel_spacing
         ):
-            raise ResusError(f"pixel spacing must be positive, got {self.pixel_spacing}")
+            raise ResusError(
+                f"ProbeCalibration.pixel_spacing must be positive, got {self.pixel_spacing}"
+            )
         if self.matrix is not None:
             object.__setattr__(self, "matrix", check_calibration(self.matrix))
 
