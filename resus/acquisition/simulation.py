@@ -208,6 +208,16 @@ class SimulatedSweepJob:
     rigid: bool = False
     """Image the rigid world: no deformation under the probe, no pulsation."""
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "out", Path(self.out))
+        if isinstance(self.plan, str):
+            object.__setattr__(self, "plan", Path(self.plan))
+        elif not isinstance(self.plan, SweepPattern | Path):
+            raise ResusError(
+                "SimulatedSweepJob.plan must be a sweep pattern or a trajectory file, got "
+                f"{self.plan!r}"
+            )
+
     def scene_config(self) -> SceneConfig:
         """The scene with the job's phantom and subject."""
         return resolve_scene(self.scene, self.phantom, self.subject)
@@ -274,6 +284,10 @@ def _sweep_record(job: SimulatedSweepJob, records: Path) -> UnitRecord:
 
 
 def _make_sweep(job: SimulatedSweepJob) -> tuple[str, int]:
-    """One subject's sweep, quietly (top level so worker processes can run it)."""
+    """One subject's sweep, quietly (top level so worker processes can run it), with numba's
+    threads cut to the unit's cores so units side by side do not oversubscribe them."""
+    from resus.execution import limit_numba_threads
+
+    limit_numba_threads()
     result = job.run(progress=False)
     return str(result.path), result.frames

@@ -118,7 +118,10 @@ def test_a_sweep_job_per_subject_is_kept_until_its_plan_file_changes(tmp_path) -
     scene, plan = single.scene_config(), tmp_path / "plan.yaml"
     pattern.trajectory(Phantom(phantom_spec(scene, 3)), scene.phantom_to_base).to_yaml(plan)
 
-    job = SimulatedSweepJob(tmp_path / "unused.h5", plan, seed=3)
+    job = SimulatedSweepJob(tmp_path / "unused.h5", str(plan), seed=3)  # a path as text too
+    assert job.plan == plan
+    with pytest.raises(ResusError, match=r"^SimulatedSweepJob\.plan must be a sweep pattern"):
+        SimulatedSweepJob(tmp_path / "x.h5", 3)  # type: ignore[arg-type]
     folder, in_process = tmp_path / "subjects", LocalExecutor(1)
     paths, kept = simulate_subject_sweeps(job, [0, 2], folder, in_process)
     assert paths == [folder / "subject_00.h5", folder / "subject_02.h5"] and kept == []
