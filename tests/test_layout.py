@@ -5,6 +5,7 @@ import ast
 import importlib
 import inspect
 import pkgutil
+import re
 from pathlib import Path
 
 import pytest
@@ -57,3 +58,35 @@ def test_sim_never_imports_resus() -> None:
                 names = [node.module]
             offenders += [f"{path}: {n}" for n in names if n.split(".")[0] == "resus"]
     assert not offenders, offenders
+
+
+DOCUMENTED_NAME = re.compile(r"`((?:resus|sim)(?:\.[A-Za-z_]\w*)+)(?![\w/.])")
+"""A dotted name in backticks (`resus.sweep.summary.summarize_sweep`); not a schema name
+(`resus.probe/1`)."""
+
+
+@pytest.mark.parametrize("document", ["README.md", "docs/architecture.md"])
+def test_every_name_the_documents_give_exists(document: str) -> None:
+    """The README and the architecture notes send readers to modules and functions by name:
+    each must import, so a move or a rename cannot leave them pointing nowhere."""
+    missing = [
+        name
+        for name in sorted(set(DOCUMENTED_NAME.findall((REPOSITORY / document).read_text())))
+        if _resolved(name) is None
+    ]
+    assert not missing, missing
+
+
+def _resolved(name: str) -> object:
+    """What the dotted `name` names: its longest importable module, then attributes (None
+    where one is missing)."""
+    parts = name.split(".")
+    for split in range(len(parts), 0, -1):
+        try:
+            target: object = importlib.import_module(".".join(parts[:split]))
+        except ImportError:
+            continue
+        for attribute in parts[split:]:
+            target = getattr(target, attribute, None)
+        return target
+    return None
