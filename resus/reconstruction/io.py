@@ -98,7 +98,7 @@ NRRD_TIME_LINE = re.compile(rb"# on \d{4}-\d\d-\d\d \d\d:\d\d:\d\d\(GMT\)\.\n")
 
 
 def _stamp_nrrd(path: Path) -> None:
-    """Put `resus.timestamps.now()` in the time comment pynrrd wrote, in place (same
+    """Put `resus.sweep.timestamps.now()` in the time comment pynrrd wrote, in place (same
     length): with SOURCE_DATE_EPOCH set, two runs write byte-identical volumes."""
     with open(path, "r+b") as file:
         head = file.read(256)
