@@ -5,13 +5,17 @@ Caches of simulated data (the sim-to-real experiment's sweeps, the experiments' 
 from: phantom, subject, seed, the scanner preset's name, the sweep pattern. None of those
 changes when a preset's knobs or the renderer do, so a cache keyed on them alone would hand
 back sweeps an older simulator made. Keyed on this fingerprint as well, a cached sweep is
-reused only if the same simulator would make it again. The hash errs the other way: a changed
-comment re-simulates, which costs minutes, never a wrong figure. `files_digest` does the same
-for files outside the simulator that a cache depends on (a phantom spec of one's own, weights).
+reused only if the same simulator would make it again. A Python module counts by its syntax
+tree without its docstrings, so an edited comment, docstring or line break keeps the
+fingerprint (and every cache keyed on it, the models trained on cached sweeps included); any
+other change errs the safe way and re-simulates, which costs time, never a wrong figure.
+`files_digest` does the same for files outside the simulator that a cache depends on (a
+phantom spec of one's own, weights).
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
 from collections.abc import Iterable
 from functools import cache
@@ -31,8 +35,9 @@ def simulator_fingerprint() -> str:
 
 def tree_fingerprint(roots: tuple[Path, ...]) -> str:
     """The first 16 hex digits of a SHA-256 over the source files under `roots`, each by its
-    path relative to its root and its bytes, in sorted order: the same files give the same
-    fingerprint wherever they are installed."""
+    path relative to its root and its content (`hashed_content`), in sorted order: the same
+    files give the same fingerprint wherever they are installed (on one Python version: the
+    syntax tree's form is Python's)."""
     digest = hashlib.sha256()
     for root in roots:
         files = sorted(
@@ -42,8 +47,31 @@ def tree_fingerprint(roots: tuple[Path, ...]) -> str:
         )
         for path in files:
             digest.update(path.relative_to(root).as_posix().encode())
-            digest.update(path.read_bytes())
+            digest.update(hashed_content(path))
     return digest.hexdigest()[:16]
+
+
+def hashed_content(path: Path) -> bytes:
+    """What of a source file the fingerprint hashes: a Python module's syntax tree with every
+    statement that is a bare string (a docstring: it does nothing) left out, so comments,
+    docstrings and layout do not count; any other file's bytes."""
+    if path.suffix != ".py":
+        return path.read_bytes()
+    tree = ast.parse(path.read_bytes(), filename=str(path))
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if isinstance(body, list):
+            code = [statement for statement in body if not _is_bare_string(statement)]
+            node.body = code or [ast.Pass()]  # type: ignore[attr-defined]
+    return ast.dump(tree).encode()
+
+
+def _is_bare_string(statement: ast.stmt) -> bool:
+    return (
+        isinstance(statement, ast.Expr)
+        and isinstance(statement.value, ast.Constant)
+        and isinstance(statement.value.value, str)
+    )
 
 
 def files_digest(paths: Iterable[Path]) -> str:

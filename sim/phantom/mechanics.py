@@ -1,4 +1,4 @@
-"""How tissue answers the probe and the heart: the laws behind `sim.phantom.deformation`.
+"""How tissue answers the probe and the heart: the laws behind `sim.ultrasound.deformation`.
 
 Four small laws, each a textbook model with its parameters in `TissueMechanics`:
 
