@@ -14,84 +14,20 @@
   its few-label curve (a package of its own, imported apart: it needs torch).
 """
 
-from resus.experiments.data import (
-    Scan,
-    ScanSettings,
-    SubjectData,
-    prepare_scan,
-    prepare_scans,
-    prepare_subjects,
-)
-from resus.experiments.demo import DemoResult, DemoSettings, run_demo
-from resus.experiments.demo_report import render_report
-from resus.experiments.realism import (
-    ImageSet,
-    RealismComparison,
-    RealismSettings,
-    RealismStats,
-    compare,
-    measure,
-    read_image_folder,
-    read_sweep_set,
-    write_realism_report,
-)
-from resus.experiments.report import ReportFigures, write_phantom_report, write_subjects_report
-from resus.experiments.results import (
-    GeneralisationCheck,
-    IoUSummary,
-    PhantomResults,
-    RunRecord,
-    ScanImages,
-    SubjectsResults,
-)
-from resus.experiments.tables import (
-    EXPERIMENT_PRESETS,
-    PAPER_EXPERIMENT,
-    QUICK_EXPERIMENT,
-    ExperimentPreset,
-    RunOptions,
-    generalisation_check,
-    get_experiment_preset,
-    run_phantom_experiment,
-    run_subjects_experiment,
-)
+from resus import lazy_exports
 
-__all__ = [
-    "EXPERIMENT_PRESETS",
-    "PAPER_EXPERIMENT",
-    "QUICK_EXPERIMENT",
-    "DemoResult",
-    "DemoSettings",
-    "ExperimentPreset",
-    "GeneralisationCheck",
-    "ImageSet",
-    "IoUSummary",
-    "PhantomResults",
-    "RealismComparison",
-    "RealismSettings",
-    "RealismStats",
-    "ReportFigures",
-    "RunOptions",
-    "RunRecord",
-    "Scan",
-    "ScanImages",
-    "ScanSettings",
-    "SubjectData",
-    "SubjectsResults",
-    "compare",
-    "generalisation_check",
-    "get_experiment_preset",
-    "measure",
-    "prepare_scan",
-    "prepare_scans",
-    "prepare_subjects",
-    "read_image_folder",
-    "read_sweep_set",
-    "render_report",
-    "run_demo",
-    "run_phantom_experiment",
-    "run_subjects_experiment",
-    "write_phantom_report",
-    "write_realism_report",
-    "write_subjects_report",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    """
+data: Scan ScanSettings SubjectData prepare_scan prepare_scans prepare_subjects
+demo: DemoResult DemoSettings run_demo
+demo_report: render_report
+realism: ImageSet RealismComparison RealismSettings RealismStats compare measure
+realism: read_image_folder read_sweep_set write_realism_report
+report: ReportFigures write_phantom_report write_subjects_report
+results: GeneralisationCheck IoUSummary PhantomResults RunRecord ScanImages SubjectsResults
+tables: EXPERIMENT_PRESETS PAPER_EXPERIMENT QUICK_EXPERIMENT ExperimentPreset RunOptions
+tables: generalisation_check get_experiment_preset run_phantom_experiment
+tables: run_subjects_experiment
+""",
+)

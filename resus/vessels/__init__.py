@@ -13,78 +13,20 @@
 - `pipeline`: all of it for one sweep, writing meshes, volumes, pictures and vessels.json.
 """
 
-from resus.vessels.anatomy import AnatomicalFrame, VesselPart, assign_by_anatomy, find_parts
-from resus.vessels.compression import (
-    CompressionResult,
-    CompressionSettings,
-    VesselCall,
-    classify_by_compression,
-)
-from resus.vessels.figures import save_mesh_views, save_needle_slice
-from resus.vessels.map import (
-    VesselMap,
-    VesselMapSettings,
-    build_vessel_map,
-    lookup_nearest,
-    segment_frames,
-)
-from resus.vessels.mesh_distance import MeshDistance
-from resus.vessels.metrics import (
-    NeedleTruth,
-    SurfaceDistances,
-    VesselScore,
-    dice,
-    needle_truth,
-    score_map,
-)
-from resus.vessels.needle import NeedlePlan, NeedleSettings, SkinModel, plan_needle
-from resus.vessels.pipeline import (
-    MeshSummary,
-    VesselJob,
-    VesselMapResult,
-    map_vessels,
-    write_meshes,
-)
-from resus.vessels.sections import Section, SectionSettings, SectionTrack, follow_sections
-from resus.vessels.track import CrossSection, VesselTrack, vessel_track
+from resus import lazy_exports
 
-__all__ = [
-    "AnatomicalFrame",
-    "CompressionResult",
-    "CompressionSettings",
-    "CrossSection",
-    "MeshDistance",
-    "MeshSummary",
-    "NeedlePlan",
-    "NeedleSettings",
-    "NeedleTruth",
-    "Section",
-    "SectionSettings",
-    "SectionTrack",
-    "SkinModel",
-    "SurfaceDistances",
-    "VesselCall",
-    "VesselJob",
-    "VesselMap",
-    "VesselMapResult",
-    "VesselMapSettings",
-    "VesselPart",
-    "VesselScore",
-    "VesselTrack",
-    "assign_by_anatomy",
-    "build_vessel_map",
-    "classify_by_compression",
-    "dice",
-    "find_parts",
-    "follow_sections",
-    "lookup_nearest",
-    "map_vessels",
-    "needle_truth",
-    "plan_needle",
-    "save_mesh_views",
-    "save_needle_slice",
-    "score_map",
-    "segment_frames",
-    "vessel_track",
-    "write_meshes",
-]
+__getattr__, __dir__, __all__ = lazy_exports(
+    __name__,
+    """
+anatomy: AnatomicalFrame VesselPart assign_by_anatomy find_parts
+compression: CompressionResult CompressionSettings VesselCall classify_by_compression
+figures: save_mesh_views save_needle_slice
+map: VesselMap VesselMapSettings build_vessel_map lookup_nearest segment_frames
+mesh_distance: MeshDistance
+metrics: NeedleTruth SurfaceDistances VesselScore dice needle_truth score_map
+needle: NeedlePlan NeedleSettings SkinModel plan_needle
+pipeline: MeshSummary VesselJob VesselMapResult map_vessels write_meshes
+sections: Section SectionSettings SectionTrack follow_sections
+track: CrossSection VesselTrack vessel_track
+""",
+)
