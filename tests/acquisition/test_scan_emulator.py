@@ -45,17 +45,33 @@ def label_mismatch(sweep) -> np.ndarray:
     return np.array(mismatch)
 
 
+PLAN_LENGTH, PLAN_SPEED, PLAN_FRAME_RATE = 0.012, 0.008, 10.0
+"""The sweep `plan_file` plans: metres, metres a second, frames a second."""
+
+
 def plan_file(tmp_path) -> str:
     """A transverse 12 mm sweep (both vessels in every frame) planned by `resus plan`, 8 mm/s at
     10 frames/s: a synthetic frame costs about 45 ms of CPU on cores shared with real-time
     processes."""
     plan = tmp_path / "plan.yaml"
     planned = resus(
-        "plan", "--start", "0,-0.006", "--direction", "0,1", "--length", "0.012",
-        "--speed", "0.008", "--frame-rate", "10", "--voxel-size", "0.001", "--out", plan,
+        "plan", "--start", "0,-0.006", "--direction", "0,1", "--length", PLAN_LENGTH,
+        "--speed", PLAN_SPEED, "--frame-rate", PLAN_FRAME_RATE, "--voxel-size", "0.001",
+        "--out", plan,
     )  # fmt: skip
     assert planned.returncode == 0, planned.stdout + planned.stderr
     return str(plan)
+
+
+def assert_the_whole_plan_travelled(sweep) -> None:
+    """The first and the last frame lie along base +y as far apart as the plan guarantees:
+    each comes within one frame period of the path's ends, so at least its length less two
+    periods' travel (0.8 mm each). 10.5 mm, the bound until 2026-12-07, was not guaranteed: a
+    correct run on a loaded host measured 10.49 mm."""
+    travel = sweep.probe_to_base[-1, :3, 3] - sweep.probe_to_base[0, :3, 3]
+    shortest = PLAN_LENGTH - 2 * PLAN_SPEED / PLAN_FRAME_RATE
+    assert shortest - 1e-4 < travel[1] < PLAN_LENGTH + 5e-4, travel
+    assert np.abs(travel[[0, 2]]).max() < 1e-3, travel
 
 
 def test_scan_records_the_controllers_poses_the_phantoms_labels_and_the_force(tmp_path):
@@ -96,8 +112,7 @@ def test_scan_records_the_controllers_poses_the_phantoms_labels_and_the_force(tm
     assert np.degrees(relative.magnitude()).max() < 0.05
     # The probe moved along the plan (base +y), all of it: the scanner sends the target for
     # the robot's clock, so a servo loop that falls behind real time skips, not stretches.
-    travel = sweep.probe_to_base[-1, :3, 3] - sweep.probe_to_base[0, :3, 3]
-    assert 0.0105 < travel[1] < 0.0125 and np.abs(travel[[0, 2]]).max() < 1e-3
+    assert_the_whole_plan_travelled(sweep)
 
     # Labels: every frame shows the phantom's anatomy at its recorded pose.
     assert (sweep.labels == 1).any() and (sweep.labels == 2).any()
@@ -123,6 +138,5 @@ def test_the_same_plan_file_runs_unchanged_in_the_simulator(tmp_path):
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     sweep = read_sweep(out)
-    travel = sweep.probe_to_base[-1, :3, 3] - sweep.probe_to_base[0, :3, 3]
-    assert 0.0105 < travel[1] < 0.0125 and np.abs(travel[[0, 2]]).max() < 1e-3
+    assert_the_whole_plan_travelled(sweep)
     assert label_mismatch(sweep).max() < 2e-3
