@@ -28,7 +28,7 @@ probe: Frame Probe
 robot: Robot RobotFault host_clock_offset
 safety: SafetyLimits
 scanner: Scanner ScannerSettings ScanResult
-simulation: SimulatedSweepJob resolve_scene simulate_subject_sweeps simulate_sweep
+simulation: SimulatedSweepJob resolve_scene simulate_subject_sweeps simulate_sweep simulate_sweeps
 trajectory: Trajectory
 """,
 )

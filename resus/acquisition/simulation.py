@@ -1,7 +1,8 @@
 """Simulated acquisition end to end: scene, robot, probe, trajectory -> a Sweep file.
 
 `SimulatedSweepJob` names one sweep in plain values (so a worker process or a Ray node can
-make it), and `simulate_subject_sweeps` makes one per phantom subject, each a resumable unit.
+make it); `simulate_sweeps` makes many, each a resumable unit, and `simulate_subject_sweeps`
+one per phantom subject.
 """
 
 from __future__ import annotations
@@ -30,11 +31,11 @@ from sim.robot.scene_config import SceneConfig, load_scene_config, scene_path
 from sim.ultrasound.scanner import ScannerPreset, sweep_preset
 
 if TYPE_CHECKING:
-    from resus.execution import Executor, UnitRecord
+    from resus.execution import Executor
 
 SUBJECT_ID = re.compile(r"^(?P<phantom>[^/]+)/(?P<subject>nominal|\d+)$")
 DONE_FOLDER = ".done"
-"""Under a folder of subjects' sweeps: one record per finished sweep (`simulate_subject_sweeps`)."""
+"""Beside the sweeps `simulate_sweeps` makes: one record per finished sweep."""
 
 
 def resolve_scene(scene: str | Path, phantom: str | None, subject: int | None) -> SceneConfig:
@@ -202,9 +203,10 @@ class SimulatedSweepJob:
     subject: int | None = None
     seed: int | None = None
     """The phantom's seed: its anatomy's draw and its speckle (None: the spec's)."""
-    scanner: str | None = None
-    """A scanner preset (`sim.ultrasound.scanner.sweep_preset`: a name, a file, "random-N",
-    or "random", drawn for the seed and subject); None: the simulator's own settings."""
+    scanner: str | ScannerPreset | None = None
+    """A scanner preset, or one named (`sim.ultrasound.scanner.sweep_preset`: a name, a file,
+    "random-N", or "random", drawn for the seed and subject); None: the simulator's own
+    settings."""
     rigid: bool = False
     """Image the rigid world: no deformation under the probe, no pulsation."""
 
@@ -224,6 +226,8 @@ class SimulatedSweepJob:
 
     def scanner_preset(self) -> ScannerPreset | None:
         """The job's scanner preset (None: the simulator's own settings)."""
+        if isinstance(self.scanner, ScannerPreset):
+            return self.scanner
         with simulator_errors("SimulatedSweepJob.scanner"):
             return sweep_preset(self.scanner, self.seed, self.subject)
 
@@ -258,34 +262,44 @@ class SimulatedSweepJob:
         )
 
 
+def subject_sweep_path(folder: Path, subject: int) -> Path:
+    """Where a folder of subjects' sweeps keeps subject `subject`'s: `folder/subject_KK.h5`."""
+    return folder / f"subject_{subject:02d}.h5"
+
+
 def simulate_subject_sweeps(
     job: SimulatedSweepJob, subjects: Sequence[int], folder: Path, executor: Executor
 ) -> tuple[list[Path], list[Path]]:
-    """`job` once per subject into `folder/subject_KK.h5`, each a unit on `executor`, recorded
-    when it finishes under `folder/DONE_FOLDER` with its `key`, so a rerun makes only the
-    sweeps that are missing or were made otherwise: every sweep's path, and those kept."""
-    from resus.execution import run_pending
+    """`job` once per subject into `folder` (`subject_sweep_path`), by `simulate_sweeps`:
+    every sweep's path, and those kept from an earlier run."""
+    jobs = [
+        dataclasses.replace(job, subject=k, out=subject_sweep_path(folder, k)) for k in subjects
+    ]
+    return [job.out for job in jobs], simulate_sweeps(jobs, executor)
 
-    folder.mkdir(parents=True, exist_ok=True)
+
+def simulate_sweeps(
+    jobs: Sequence[SimulatedSweepJob], executor: Executor, *, progress: bool = True
+) -> list[Path]:
+    """Each job a unit on `executor`, recorded when it finishes beside its sweep (under
+    `DONE_FOLDER`) with its `key`, so a rerun makes only the sweeps that are missing or were
+    made otherwise: the sweeps kept from an earlier run. A sweep killed half made has no
+    record, so the next run makes it again."""
+    from resus.execution import UnitRecord, run_pending
+
     units = []
-    for k in subjects:
-        subject_job = dataclasses.replace(job, subject=k, out=folder / f"subject_{k:02d}.h5")
-        units.append((subject_job, _sweep_record(subject_job, folder / DONE_FOLDER)))
-    kept = [unit.out for unit, record in units if record.done()]
-    run_pending(executor, _make_sweep, units, "subjects", "sweep")
-    return [unit.out for unit, _ in units], kept
-
-
-def _sweep_record(job: SimulatedSweepJob, records: Path) -> UnitRecord:
-    """Where `job` records that it finished, keyed by what its sweep depends on."""
-    from resus.execution import UnitRecord
-
-    return UnitRecord(records / f"{job.out.stem}.json", job.key(), (job.out,))
+    for job in jobs:
+        job.out.parent.mkdir(parents=True, exist_ok=True)
+        record = job.out.parent / DONE_FOLDER / f"{job.out.stem}.json"
+        units.append((job, UnitRecord(record, job.key(), (job.out,))))
+    kept = [job.out for job, record in units if record.done()]
+    run_pending(executor, _make_sweep, units, "simulate", "sweep", progress=progress)
+    return kept
 
 
 def _make_sweep(job: SimulatedSweepJob) -> tuple[str, int]:
-    """One subject's sweep, quietly (top level so worker processes can run it), with numba's
-    threads cut to the unit's cores so units side by side do not oversubscribe them."""
+    """One sweep, quietly (top level so worker processes can run it), with numba's threads
+    cut to the unit's cores so units side by side do not oversubscribe them."""
     from resus.execution import limit_numba_threads
 
     limit_numba_threads()

@@ -10,13 +10,13 @@ import math
 import shutil
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 from cli_runner import run_main
 from PIL import Image
 
 from resus.acquisition.patterns import LinearPattern
+from resus.acquisition.simulation import DONE_FOLDER
 from resus.errors import ResusError
 from resus.execution import LocalExecutor
 from resus.experiments.sim2real import (
@@ -297,10 +297,16 @@ def test_a_small_run_end_to_end(tmp_path):
     made = simulate_subjects(out / "data" / "sweeps", TINY, 3, in_process, progress=False)
     assert made == sweeps
     assert [p.stat().st_mtime_ns for p in sweeps] == stamps
+    # ... each recorded with its scanner preset's knobs, drawn for its subject ...
+    record_path = out / "data" / "sweeps" / DONE_FOLDER / "subject_01.json"
+    record = json.loads(record_path.read_text())
+    with SweepReader(sweeps[1]) as sweep:
+        provenance = sweep.provenance
+    assert record["key"]["scanner"] == provenance["scanner_knobs"]
+    assert record["key"]["simulator"] == provenance["simulator"] == simulator_fingerprint()
     # ... and makes again one that another simulator made (its fingerprint differs)
-    with h5py.File(sweeps[1], "r+") as sweep:
-        provenance = json.loads(sweep.attrs["provenance"])
-        sweep.attrs["provenance"] = json.dumps({**provenance, "simulator": "0" * 16})
+    record["key"]["simulator"] = "0" * 16
+    record_path.write_text(json.dumps(record))
     simulate_subjects(out / "data" / "sweeps", TINY, 3, in_process, progress=False)
     assert sweeps[0].stat().st_mtime_ns == stamps[0]
     assert sweeps[1].stat().st_mtime_ns != stamps[1]

@@ -35,6 +35,7 @@ few_label: FROM_SCRATCH FROM_SIMULATION INITIALISATIONS CurvePoint RealSplit Spr
 few_label: curve_summary fine_tune real_splits rehearsal_frames repeated_to
 report: pretraining_verdict write_sim2real_report
 settings: SIM2REAL_PRESETS Sim2RealSettings get_sim2real_preset
-subjects: off_vessel_subjects simulate_subjects subject_preset subject_sweep sweep_provenance
+subjects: off_vessel_subjects simulate_subjects subject_job subject_preset subject_sweep
+subjects: sweep_provenance
 """,
 )

@@ -15,30 +15,51 @@ from resus.experiments.vessel_targets import vessel_depth
 from sim.ultrasound.scanner import RANDOM_RANGES, sweep_preset
 
 if TYPE_CHECKING:
+    from resus.acquisition.simulation import SimulatedSweepJob
     from sim.phantom import PhantomSpec
+    from sim.robot.scene_config import SceneConfig
     from sim.ultrasound.scanner import ScannerPreset
 
 
 def sweep_provenance(settings: Sim2RealSettings, subject: int, seed: int) -> dict:
-    """What a subject's sweep of the experiment must have been made from to be reused
-    (`resus.acquisition.simulation.sweep_provenance`)."""
-    return _subject_scan(settings, subject, seed)[0]
-
-
-def _subject_scan(
-    settings: Sim2RealSettings, subject: int, seed: int
-) -> tuple[dict, ScannerPreset | None]:
-    """A subject's sweep provenance (`sweep_provenance`) and the scanner preset that makes
-    it, from one draw of the subject's phantom."""
-    from resus.acquisition.simulation import phantom_spec, resolve_scene
+    """What a subject's sweep of the experiment is made from
+    (`resus.acquisition.simulation.sweep_provenance`): the data part of the keys of the models
+    trained on it."""
     from resus.acquisition.simulation import sweep_provenance as simulated_provenance
     from sim.phantom import Phantom
 
-    scene = resolve_scene("default", settings.phantom, subject)
-    spec = phantom_spec(scene, seed)
+    scene, spec = _subject_phantom(settings, subject, seed)
     preset = subject_preset(settings, spec, subject, seed)
     path = subject_sweep(settings, subject, seed).trajectory(Phantom(spec), scene.phantom_to_base)
-    return simulated_provenance(scene, spec, preset, path), preset
+    return simulated_provenance(scene, spec, preset, path)
+
+
+def subject_job(
+    settings: Sim2RealSettings, subject: int, seed: int, folder: Path
+) -> SimulatedSweepJob:
+    """A subject's sweep of the experiment, into `folder`: its own sweep (`subject_sweep`) and
+    scanner preset (`subject_preset`), both drawn from (seed, subject)."""
+    from resus.acquisition.simulation import SimulatedSweepJob, subject_sweep_path
+
+    _, spec = _subject_phantom(settings, subject, seed)
+    return SimulatedSweepJob(
+        subject_sweep_path(folder, subject),
+        subject_sweep(settings, subject, seed),
+        phantom=settings.phantom,
+        subject=subject,
+        seed=seed,
+        scanner=subject_preset(settings, spec, subject, seed),
+    )
+
+
+def _subject_phantom(
+    settings: Sim2RealSettings, subject: int, seed: int
+) -> tuple[SceneConfig, PhantomSpec]:
+    """The default scene on the experiment's phantom and the subject's draw of it."""
+    from resus.acquisition.simulation import phantom_spec, resolve_scene
+
+    scene = resolve_scene("default", settings.phantom, subject)
+    return scene, phantom_spec(scene, seed)
 
 
 def simulate_subjects(
@@ -49,24 +70,13 @@ def simulate_subjects(
     *,
     progress: bool = True,
 ) -> list[Path]:
-    """One sweep per subject in `folder/subject_KK.h5`, each a unit on `executor`; a sweep
-    already there from the same phantom, subject, seed, scanner and simulator
-    (`sweep_provenance`) is kept."""
-    from resus.sweep.io import SweepReader
+    """One sweep per subject in `folder` (`subject_job`), each a unit on `executor`; a sweep
+    made earlier with the same settings is kept (`simulate_sweeps`)."""
+    from resus.acquisition.simulation import simulate_sweeps
 
-    folder.mkdir(parents=True, exist_ok=True)
-    paths = [folder / f"subject_{k:02d}.h5" for k in settings.subjects]
-    work = []
-    for subject, path in zip(settings.subjects, paths, strict=True):
-        wanted, preset = _subject_scan(settings, subject, seed)
-        if path.is_file():
-            with SweepReader(path) as reader:
-                made_from = {key: reader.provenance.get(key) for key in wanted}
-            if made_from == wanted:
-                continue
-        work.append((path, settings, subject, seed, preset))
-    executor.map(_simulate_sweep, work, "simulate", "sweep", progress=progress)
-    return paths
+    jobs = [subject_job(settings, k, seed, folder) for k in settings.subjects]
+    simulate_sweeps(jobs, executor, progress=progress)
+    return [job.out for job in jobs]
 
 
 def off_vessel_subjects(settings: Sim2RealSettings, seed: int) -> frozenset[int]:
@@ -110,20 +120,3 @@ def subject_preset(
     )
     depth = vessel_depth(spec, float(sweep.middle[1])) / fraction
     return preset.at_depth(float(np.clip(depth, *RANDOM_RANGES["depth"])))
-
-
-def _simulate_sweep(
-    job: tuple[Path, Sim2RealSettings, int, int, ScannerPreset | None],
-) -> None:
-    """One subject's sweep with its scanner preset (`_subject_scan`'s; top level so worker
-    processes can run it)."""
-    from resus.acquisition.simulation import resolve_scene, simulate_sweep
-    from resus.execution import limit_numba_threads
-
-    limit_numba_threads()
-    path, settings, subject, seed, preset = job
-    scene = resolve_scene("default", settings.phantom, subject)
-    partial = path.with_suffix(".partial.h5")
-    sweep = subject_sweep(settings, subject, seed)
-    simulate_sweep(partial, scene, sweep, seed=seed, preset=preset, progress=False)
-    partial.replace(path)  # a killed run leaves no half sweep under the final name
