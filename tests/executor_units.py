@@ -6,11 +6,12 @@ worker) or receive them by value (a Ray worker: `test_ray_engine.py` registers t
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from resus.acquisition.scanner import ScanAborted, ScanResult
 from resus.errors import ResusError
-from resus.execution import granted_cpus
+from resus.execution import UnitRecord, granted_cpus
 
 
 def granted(_: object) -> int | None:
@@ -31,12 +32,23 @@ def abort_scan(item: int) -> None:
     raise ScanAborted(f"no stable contact in unit {item}", ScanResult(Path("s.h5"), item, 0.5))
 
 
-def count_and_square(job: tuple[int, str]) -> int:
-    """A unit that fails for item 2 while a 'fail' file exists in the job's folder, else counts
-    its runs in a file of its own (`ran_ITEM`) and returns the item squared."""
-    item, folder = job
-    if item == 2 and (Path(folder) / "fail").exists():
+@dataclass(frozen=True)
+class CountedSquare:
+    """A resumable unit for `count_and_square`: its item, and the folder of its run counts
+    and its record."""
+
+    item: int
+    folder: Path
+
+    def record(self) -> UnitRecord:
+        return UnitRecord(self.folder / f"unit_{self.item}.json", {"k": self.item})
+
+
+def count_and_square(unit: CountedSquare) -> int:
+    """A unit that fails for item 2 while a 'fail' file exists in the unit's folder, else
+    counts its runs in a file of its own (`ran_ITEM`) and returns the item squared."""
+    if unit.item == 2 and (unit.folder / "fail").exists():
         raise ResusError("unit 2 failed")
-    with open(Path(folder) / f"ran_{item}", "a") as runs:
+    with open(unit.folder / f"ran_{unit.item}", "a") as runs:
         runs.write("ran\n")
-    return item * item
+    return unit.item * unit.item

@@ -31,7 +31,7 @@ from sim.robot.scene_config import SceneConfig, load_scene_config, scene_path
 from sim.ultrasound.scanner import ScannerPreset, sweep_preset
 
 if TYPE_CHECKING:
-    from resus.execution import Executor
+    from resus.execution import Executor, UnitRecord
 
 SUBJECT_ID = re.compile(r"^(?P<phantom>[^/]+)/(?P<subject>nominal|\d+)$")
 DONE_FOLDER = ".done"
@@ -247,6 +247,14 @@ class SimulatedSweepJob:
             "rigid": self.rigid,
         }
 
+    def record(self) -> UnitRecord:
+        """Where the sweep is recorded as made, with its `key`: under `DONE_FOLDER` beside it
+        (`simulate_sweeps`)."""
+        from resus.execution import UnitRecord
+
+        record = self.out.parent / DONE_FOLDER / f"{self.out.stem}.json"
+        return UnitRecord(record, self.key(), (self.out,))
+
     def run(self, *, progress: bool = True, listeners: Sequence[FrameSink] = ()) -> ScanResult:
         """Make the sweep (`simulate_sweep`)."""
         plan = Trajectory.from_yaml(self.plan) if isinstance(self.plan, Path) else self.plan
@@ -285,15 +293,12 @@ def simulate_sweeps(
     `DONE_FOLDER`) with its `key`, so a rerun makes only the sweeps that are missing or were
     made otherwise: the sweeps kept from an earlier run. A sweep killed half made has no
     record, so the next run makes it again."""
-    from resus.execution import UnitRecord, run_pending
+    from resus.execution import run_pending
 
-    units = []
+    kept = [job.out for job in jobs if job.record().done()]
     for job in jobs:
         job.out.parent.mkdir(parents=True, exist_ok=True)
-        record = job.out.parent / DONE_FOLDER / f"{job.out.stem}.json"
-        units.append((job, UnitRecord(record, job.key(), (job.out,))))
-    kept = [job.out for job, record in units if record.done()]
-    run_pending(executor, _make_sweep, units, "simulate", "sweep", progress=progress)
+    run_pending(executor, _make_sweep, jobs, "simulate", "sweep", progress=progress)
     return kept
 
 

@@ -24,6 +24,7 @@ from resus.execution.executor import (
 from resus.execution.local import LocalExecutor
 from resus.execution.ray_cluster import RayExecutor, check_address, start_local_ray
 from resus.execution.units import (
+    RecordedUnit,
     UnitRecord,
     as_json,
     file_digest,
@@ -38,6 +39,7 @@ __all__ = [
     "Executor",
     "LocalExecutor",
     "RayExecutor",
+    "RecordedUnit",
     "Resources",
     "UnitRecord",
     "as_json",

@@ -3,9 +3,9 @@
 A `UnitRecord` is one JSON file, `{"key": SETTINGS, "result": RESULT}`, written by the unit
 itself (in its worker) after its outputs, atomically (a temporary file renamed over it): a
 unit killed halfway leaves no record and runs again, and a record of other settings does not
-count. `run_pending` runs only the units without a finished record and returns every unit's
-result from the records, so a rerun after a crash, a killed worker or a lost node costs only
-the units that had not finished.
+count. A unit knows its record (`RecordedUnit`); `run_pending` runs only the units without a
+finished record and returns every unit's result from the records, so a rerun after a crash, a
+killed worker or a lost node costs only the units that had not finished.
 """
 
 from __future__ import annotations
@@ -16,12 +16,10 @@ import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Protocol, TypeVar
 
 from resus.execution.executor import ONE_CPU, Executor, Resources
 from sim.fingerprint import files_digest
-
-Item = TypeVar("Item")
 
 
 def read_json(path: Path) -> dict:
@@ -87,25 +85,36 @@ class UnitRecord:
         write_json(self.path, {"key": self.key, "result": as_json(result)})
 
 
+class RecordedUnit(Protocol):
+    """A unit of work that knows where it records that it finished, and with what key."""
+
+    def record(self) -> UnitRecord: ...
+
+
+Unit = TypeVar("Unit", bound=RecordedUnit)
+
+
 def run_pending(
     executor: Executor,
-    function: Callable[[Item], Any],
-    units: Sequence[tuple[Item, UnitRecord]],
+    function: Callable[[Unit], Any],
+    units: Sequence[Unit],
     desc: str,
     unit: str,
     resources: Resources = ONE_CPU,
     progress: bool = True,
 ) -> list[Any]:
-    """`function(item)` for every unit whose record is not finished, each recorded by its
-    worker as it ends; then every unit's result, in order, from the records."""
-    pending = [(item, record) for item, record in units if not record.done()]
+    """`function(unit)` for every unit whose record is not finished, each recorded by its
+    worker as it ends; then every unit's result, in order, from the records. Each unit's
+    record (and so its key) is taken once, here."""
+    records = [item.record() for item in units]
+    pending = [pair for pair in zip(units, records, strict=True) if not pair[1].done()]
     executor.map(
         functools.partial(_run_and_record, function), pending, desc, unit, resources, progress
     )
-    return [record.result() for _, record in units]
+    return [record.result() for record in records]
 
 
-def _run_and_record(function: Callable[[Item], Any], unit: tuple[Item, UnitRecord]) -> None:
+def _run_and_record(function: Callable[[Unit], Any], unit: tuple[Unit, UnitRecord]) -> None:
     """One unit in a worker: run it, then write its record."""
     item, record = unit
     record.finish(function(item))

@@ -242,7 +242,7 @@ def run_training_units(
     results = run_pending(
         executor,
         train_unit,
-        [(unit, unit.record()) for unit in units],
+        units,
         "training",
         "run",
         resources,

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 from cli_runner import free_port
-from executor_units import abort_scan, count_and_square, granted, refuse
+from executor_units import CountedSquare, abort_scan, count_and_square, granted, refuse
 
 from resus.acquisition.scanner import ScanAborted, ScanResult
 from resus.errors import ResusError
@@ -125,17 +125,15 @@ def runs_of(folder: Path, item: int) -> int:
 
 def test_a_resumed_run_recomputes_nothing_that_finished(tmp_path):
     (tmp_path / "fail").touch()
-    units = [
-        ((k, str(tmp_path)), UnitRecord(tmp_path / f"unit_{k}.json", {"k": k})) for k in range(4)
-    ]
+    units = [CountedSquare(k, tmp_path) for k in range(4)]
     with pytest.raises(ResusError, match=r"unit 2 failed"):
         run_pending(LocalExecutor(1), count_and_square, units, "t", "x", progress=False)
     assert [runs_of(tmp_path, k) for k in range(4)] == [1, 1, 0, 0]  # in order, in this process
-    finished = {k: units[k][1].path.stat().st_mtime_ns for k in (0, 1)}
+    finished = {k: units[k].record().path.stat().st_mtime_ns for k in (0, 1)}
     (tmp_path / "fail").unlink()
     results = run_pending(LocalExecutor(2), count_and_square, units, "t", "x", progress=False)
     assert results == [0, 1, 4, 9]
     assert [runs_of(tmp_path, k) for k in range(4)] == [1, 1, 1, 1]
-    assert {k: units[k][1].path.stat().st_mtime_ns for k in (0, 1)} == finished
+    assert {k: units[k].record().path.stat().st_mtime_ns for k in (0, 1)} == finished
     assert run_pending(LocalExecutor(2), count_and_square, units, "t", "x") == [0, 1, 4, 9]
     assert [runs_of(tmp_path, k) for k in range(4)] == [1, 1, 1, 1]

@@ -16,14 +16,13 @@ import executor_units
 import numpy as np
 import pytest
 from cli_runner import run_main
-from executor_units import count_and_square, granted, refuse
+from executor_units import CountedSquare, count_and_square, granted, refuse
 from tiny_experiment import TINY
 
 from resus.errors import ResusError
 from resus.execution import (
     RayExecutor,
     Resources,
-    UnitRecord,
     make_executor,
     run_pending,
     start_local_ray,
@@ -90,10 +89,11 @@ def test_a_killed_worker_has_its_unit_retried(tmp_path):
 
 def test_a_resumed_ray_run_recomputes_nothing_that_finished(tmp_path):
     (tmp_path / "fail").touch()
-    units = [((k, str(tmp_path)), UnitRecord(tmp_path / f"{k}.json", {"k": k})) for k in range(6)]
+    units = [CountedSquare(k, tmp_path) for k in range(6)]
     with pytest.raises(ResusError, match=r"unit 2 failed"):
         run_pending(RayExecutor(2), count_and_square, units, "t", "x", progress=False)
-    finished = {k: r.path.stat().st_mtime_ns for k, (_, r) in enumerate(units) if r.done()}
+    records = [unit.record() for unit in units]
+    finished = {k: r.path.stat().st_mtime_ns for k, r in enumerate(records) if r.done()}
     assert 2 not in finished
     (tmp_path / "fail").unlink()
     results = run_pending(RayExecutor(2), count_and_square, units, "t", "x", progress=False)
@@ -102,7 +102,7 @@ def test_a_resumed_ray_run_recomputes_nothing_that_finished(tmp_path):
     # a finished unit did not run again; one still running when unit 2 failed was cancelled
     # (possibly after its count, before its record) and ran again: that is the resume
     assert [runs[k] for k in finished] == [1] * len(finished) and max(runs) <= 2
-    assert {k: units[k][1].path.stat().st_mtime_ns for k in finished} == finished
+    assert {k: records[k].path.stat().st_mtime_ns for k in finished} == finished
 
 
 def sweeps_of(folder: Path) -> dict[str, object]:

@@ -142,9 +142,8 @@ def run_sim2real(
             )
         )
     run_pending(
-        engine, train_sim_only, [(unit, unit.record()) for unit in units], "simulation only",
-        "run", settings.resources(), progress,
-    )  # fmt: skip
+        engine, train_sim_only, units, "simulation only", "run", settings.resources(), progress
+    )
     # scored here with the training runs' thread count: figures that do not depend on
     # which engine trained (torch's sums follow its threads)
     torch.set_num_threads(settings.training_cpus)

@@ -287,7 +287,7 @@ def few_label_curve(
     scores = run_pending(
         executor,
         fine_tune_unit,
-        [(unit, unit.record()) for unit in units],
+        units,
         "few-label",
         "run",
         settings.resources(),
