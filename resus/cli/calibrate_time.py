@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 from typing import Annotated
 
@@ -15,7 +16,7 @@ import numpy as np
 import typer
 
 from resus.cli.options import PhantomOption, SceneOption
-from resus.cli.parsers import flag_error, parse_numbers, parse_range
+from resus.cli.parsers import flag_error, parse_numbers, parse_range, settings_from_flags
 from resus.errors import ResusError
 
 
@@ -73,10 +74,14 @@ def calibration_plan(
         heading = sweep_heading((-y, x))
     centre_xy = np.array([parse_numbers(start, "--start", count=2)])
     centre = skin_poses(model, scene_config.phantom_to_base, centre_xy, heading, np.zeros(1))[0]
-    trajectory = oscillation(
-        centre, amplitude=amplitude, cycles=cycles, speed=speed,
-        contact_force=force if force > 0 else None, frame_rate=frame_rate,
-    )  # fmt: skip
+    trajectory = settings_from_flags(
+        functools.partial(oscillation, centre),
+        amplitude=("--amplitude", amplitude),
+        cycles=("--cycles", cycles),
+        speed=("--speed", speed),
+        contact_force=("--force", force if force > 0 else None),
+        frame_rate=("--frame-rate", frame_rate),
+    )
     trajectory.to_yaml(out)
     typer.echo(
         f"wrote {out}: {cycles} cycles of +-{amplitude * 1e3:.1f} mm in {trajectory.duration:.1f} s"

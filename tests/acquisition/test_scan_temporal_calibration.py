@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 import pytest
+from cli_runner import one_line_error, run_main
 
 from resus.acquisition.backends.simulated import (
     SimulatedProbe,
@@ -17,8 +18,10 @@ from resus.acquisition.backends.simulated import (
 from resus.acquisition.calibration.temporal import calibrate_time, image_shifts, oscillation
 from resus.acquisition.patterns import skin_poses
 from resus.acquisition.scanner import Scanner, ScannerSettings
+from resus.acquisition.trajectory import Trajectory
 from resus.errors import ResusError
 from resus.sweep.io import read_sweep
+from sim.robot.scene_config import load_scene_config, scene_path
 from sim.ultrasound.probe import LinearProbe
 
 CLOCK_OFFSET = 0.2
@@ -83,3 +86,50 @@ def test_a_sweep_without_in_plane_motion_or_too_short_is_refused(calibration_swe
     )
     with pytest.raises(ResusError, match="did not move in its image plane"):
         calibrate_time(still)
+
+
+def test_the_calibration_plan_oscillates_along_the_array_on_the_skin(monkeypatch, capsys, tmp_path):
+    """`resus calibration-plan` against the geometry worked out by hand: the default scene's
+    phantom is a block whose top face (the skin) is its frame's z = 0, placed without rotation,
+    so the centre is the start point on that face, the array lies along the asked direction and
+    the beam points down; the probe swings the amplitude to either side of it."""
+    out = tmp_path / "cal.yaml"
+    status, printed, err = run_main(
+        monkeypatch, capsys, "calibration-plan", out, "--start", "0.01,-0.02", "--direction",
+        "1,1", "--amplitude", "0.004", "--cycles", "2", "--force", "3", "--frame-rate", "20",
+    )  # fmt: skip
+    assert status == 0, err
+    plan = Trajectory.from_yaml(out)
+    assert printed == f"wrote {out}: 2 cycles of +-4.0 mm in {plan.duration:.1f} s\n"
+    phantom_to_base = load_scene_config(scene_path("default")).phantom_to_base
+    np.testing.assert_allclose(phantom_to_base[:3, :3], np.eye(3), atol=1e-12)
+    centre = phantom_to_base[:3, 3] + [0.01, -0.02, 0.0]
+    array = np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)
+    for pose in plan.waypoints:
+        np.testing.assert_allclose(pose[:3, 0], array, atol=1e-9)
+        np.testing.assert_allclose(pose[:3, 2], [0.0, 0.0, -1.0], atol=1e-9)
+    sides = np.array([1.0, -1.0, 1.0, -1.0, 1.0])  # two cycles: out, back, out, back
+    np.testing.assert_allclose(plan.waypoints[:, :3, 3], centre + 0.004 * np.outer(sides, array))
+    assert (plan.speed, plan.contact_force, plan.frame_rate) == (0.01, 3.0, 20.0)
+    assert plan.pattern == {"pattern": "oscillation", "amplitude": 0.004, "cycles": 2}
+
+    status, _, err = run_main(monkeypatch, capsys, "calibration-plan", out, "--force", "0")
+    assert status == 0, err
+    assert Trajectory.from_yaml(out).contact_force is None  # position control
+
+
+@pytest.mark.parametrize(
+    ("flag", "value", "message"),
+    [
+        ("--amplitude", "0", "--amplitude: oscillation amplitude must be positive, got 0.0"),
+        ("--cycles", "0", "--cycles: oscillation cycles must be at least 1, got 0"),
+        ("--speed", "0", "--speed: Trajectory.speed must be positive, got 0.0"),
+        ("--frame-rate", "-1", "--frame-rate: Trajectory.frame_rate must be positive, got -1.0"),
+    ],
+)
+def test_a_refused_calibration_plan_value_is_named_by_its_flag(
+    monkeypatch, capsys, tmp_path, flag: str, value: str, message: str
+) -> None:
+    out = tmp_path / "cal.yaml"
+    one_line_error(run_main(monkeypatch, capsys, "calibration-plan", out, flag, value), message)
+    assert not out.exists()

@@ -67,7 +67,8 @@ class TemporalCalibration:
             f"time offset {self.offset:+.4f} s (correlation {self.correlation:.3f} over "
             f"{len(self.times)} frames): frames were taken {abs(self.offset):.4f} s "
             f"{'after' if self.offset > 0 else 'before'} their recorded times; add "
-            f"{self.offset:+.4f} to the --time-offset this sweep was scanned with"
+            f"{self.offset:+.4f} to the time offset this sweep was scanned with "
+            "(`ScannerSettings.time_offset`, `resus scan --time-offset`)"
         )
 
 
@@ -177,9 +178,9 @@ def oscillation(
     """A calibration trajectory: the probe at `centre` (4x4, base frame) moves `amplitude` m
     to either side along its own array (x) axis, `cycles` times, at `speed`."""
     if not amplitude > 0:
-        raise ResusError(f"--amplitude must be positive, got {amplitude}")
+        raise ResusError(f"oscillation amplitude must be positive, got {amplitude}")
     if cycles < 1:
-        raise ResusError(f"--cycles must be at least 1, got {cycles}")
+        raise ResusError(f"oscillation cycles must be at least 1, got {cycles}")
     sides = [(-1.0) ** k for k in range(2 * cycles + 1)]
     waypoints = np.repeat(np.asarray(centre, dtype=np.float64)[None], len(sides), axis=0)
     waypoints[:, :3, 3] += amplitude * np.outer(sides, centre[:3, 0])
