@@ -14,6 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from resus.acquisition.backends.simulated import (
     SimulatedProbe,
     SimulatedProbeConfig,
@@ -126,15 +128,9 @@ def simulate_sweep(
     if isinstance(trajectory, SweepPattern):
         trajectory = trajectory.trajectory(phantom, scene.phantom_to_base)
     robot = SimulatedRobot(scene)
-    probe_config = probe or SimulatedProbeConfig(frame_rate=trajectory.frame_rate)
-    if rigid:
-        probe_config = dataclasses.replace(probe_config, rigid=True)
-    if preset is not None:
-        probe_config = dataclasses.replace(
-            probe_config,
-            probe=preset.probe(probe_config.probe),
-            settings=preset.settings(probe_config.settings),
-        )
+    probe_config = imaging_probe(
+        probe or SimulatedProbeConfig(frame_rate=trajectory.frame_rate), preset, rigid
+    )
     probe_source = SimulatedProbe(robot, probe_config, phantom)
     scanner = Scanner(
         robot, probe_source, settings=ScannerSettings(progress=progress), listeners=listeners
@@ -145,6 +141,20 @@ def simulate_sweep(
     }
     return scanner.run(
         trajectory, out, source="sim", subject=subject_id(scene), provenance=provenance
+    )
+
+
+def imaging_probe(
+    probe: SimulatedProbeConfig, preset: ScannerPreset | None, rigid: bool = False
+) -> SimulatedProbeConfig:
+    """The probe a sweep is imaged with: `preset`'s frequency, depth and imaging knobs on top
+    of `probe`'s array width, image size and frame rate, and the rigid world if asked."""
+    if rigid:
+        probe = dataclasses.replace(probe, rigid=True)
+    if preset is None:
+        return probe
+    return dataclasses.replace(
+        probe, probe=preset.probe(probe.probe), settings=preset.settings(probe.settings)
     )
 
 
@@ -230,6 +240,12 @@ class SimulatedSweepJob:
             return self.scanner
         with simulator_errors("SimulatedSweepJob.scanner"):
             return sweep_preset(self.scanner, self.seed, self.subject)
+
+    def image_to_probe(self) -> np.ndarray:
+        """The calibration of the sweep's frames (`imaging_probe`: the scanner preset sets
+        their depth), known before the first frame, e.g. for a live OpenIGTLink stream."""
+        probe = imaging_probe(SimulatedProbeConfig(), self.scanner_preset(), self.rigid)
+        return probe.probe.image_to_probe()
 
     def key(self) -> dict[str, Any]:
         """Everything the sweep depends on, as a cache compares it: the world and scanner

@@ -25,6 +25,8 @@ from resus.cli.plan import make_pattern
 from resus.errors import ResusError
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from resus.acquisition.patterns import SweepPattern
 
 
@@ -113,7 +115,7 @@ def simulate(
         if igtl is None:
             job.run()
         else:
-            with _igtl_server(igtl, igtl_host) as server:
+            with _igtl_server(igtl, igtl_host, job.image_to_probe()) as server:
                 job.run(listeners=[server])
         outputs = [out]
     else:
@@ -136,14 +138,12 @@ def simulate(
         typer.echo(f"wrote {preview}")
 
 
-def _igtl_server(port: int, host: str):
-    """An OpenIGTLink server for the simulated probe's frames (its default geometry, the one
-    `simulate_sweep` images with)."""
-    from resus.acquisition.backends.simulated import SimulatedProbeConfig
+def _igtl_server(port: int, host: str, image_to_probe: np.ndarray):
+    """An OpenIGTLink server for the simulated sweep's frames, placed by `image_to_probe`."""
     from resus.sweep.igtl import IMAGE_NAME, TRANSFORM_NAME, IgtlServer, check_port
 
     check_port(port, "--igtl", allow_zero=True)
-    server = IgtlServer(SimulatedProbeConfig().probe.image_to_probe(), port, host)
+    server = IgtlServer(image_to_probe, port, host)
     typer.echo(
         f"streaming OpenIGTLink on {server.address}: IMAGE {IMAGE_NAME}, TRANSFORM "
         f"{TRANSFORM_NAME} (mm)"
