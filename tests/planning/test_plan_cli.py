@@ -65,3 +65,22 @@ def test_saved_plan_runs_unchanged_in_the_simulator(tmp_path: Path) -> None:
     assert depth.min() > 0.5e-3 and depth.max() < 3e-3
     assert 0 < outcome.imaging_frames < outcome.frames  # the U-turn frames are set aside
     assert outcome.hole_fraction is not None and outcome.hole_fraction < 0.05
+
+
+def test_simulate_scans_the_plan_and_reports_the_holes_it_leaves(tmp_path: Path) -> None:
+    """`--simulate` runs the plan in the simulator: the sweep goes into the report folder
+    (beside the plan without one), its outcome is printed and written into report.md."""
+    plan, report = tmp_path / "short.yaml", tmp_path / "report"
+    done = resus("plan", "--out", plan, "--length", "0.006", "--simulate", "--report", report)
+    assert done.returncode == 0, done.stdout + done.stderr
+    sweep = read_sweep(report / "short_sweep.h5")
+    outcome = next(line for line in done.stdout.splitlines() if line.startswith("Simulated"))
+    assert outcome.startswith(f"Simulated scan `short_sweep.h5`: {len(sweep)} frames (")
+    assert "of the swept volume as holes." in outcome
+    assert outcome in (report / "report.md").read_text()
+    recorded_path = np.linalg.norm(sweep.probe_to_base[-1, :3, 3] - sweep.probe_to_base[0, :3, 3])
+    assert 0.004 < recorded_path < 0.0062  # the 6 mm plan, less a frame period at either end
+
+    alone = resus("plan", "--out", tmp_path / "alone.yaml", "--length", "0.006", "--simulate")
+    assert alone.returncode == 0, alone.stdout + alone.stderr
+    assert (tmp_path / "alone_sweep.h5").is_file()
