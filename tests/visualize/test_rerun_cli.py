@@ -99,13 +99,19 @@ def test_view_logs_sweep_volume_reslices_and_phantom(app, inputs, tmp_path):
         (["--labels", "LABELS", "--rerun-save", "out.rrd"], "--labels needs --volume"),
         ([], "nowhere to send the recording"),
         (["--predictions", "SWEEP", "--rerun-save", "out.rrd"], "no labels to show"),
+        (
+            ["--predictions", "SMALLER", "--rerun-save", "out.rrd"],
+            f"labels ({N}, 8, 12) do not match the sweep's frames",
+        ),
         (["--rerun", "window"], "--rerun must be one of serve, spawn"),
     ],
 )
 def test_view_refuses_bad_options(app, inputs, tmp_path, extra, message):
     unlabelled = tmp_path / "unlabelled.h5"
     write_sweep(unlabelled, sample_sweep(N, rows=10, cols=12, optional=False))
-    names = {"LABELS": str(inputs["labels"]), "SWEEP": str(unlabelled)}
+    smaller = tmp_path / "smaller.h5"
+    write_sweep(smaller, sample_sweep(N, rows=8, cols=12))
+    names = {"LABELS": str(inputs["labels"]), "SWEEP": str(unlabelled), "SMALLER": str(smaller)}
     extra = [names.get(arg, str(tmp_path / arg) if arg.endswith(".rrd") else arg) for arg in extra]
     result = CliRunner().invoke(app, ["view", str(inputs["sweep"]), *extra])
     assert isinstance(result.exception, ResusError), result.output
