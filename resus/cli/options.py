@@ -6,9 +6,14 @@ the live viewer (rerun) with its ports."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from resus.sweep.igtl import IgtlServer
 
 SceneOption = Annotated[str, typer.Option(help="Scene name (assets/scenes) or YAML path.")]
 PhantomOption = Annotated[str | None, typer.Option(help="Phantom spec name or YAML path.")]
@@ -45,3 +50,17 @@ def recorded_subject_option(flag: str, default: str) -> typer.models.OptionInfo:
     """The option of a command that writes a sweep naming the subject it records there;
     `default` says what is recorded when it is not given."""
     return typer.Option(flag, help=f"Subject recorded in the sweep (default: {default}).")
+
+
+def open_igtl_stream(image_to_probe: np.ndarray, port: int, host: str) -> IgtlServer:
+    """What `--igtl PORT` (`--igtl-host HOST`) opens: a server for the frames a command
+    records, placed by `image_to_probe`, announced in one line with the port it listens on
+    (the one it got, when asked for 0)."""
+    from resus.sweep.igtl import IMAGE_NAME, TRANSFORM_NAME, IgtlServer, check_port
+
+    server = IgtlServer(image_to_probe, check_port(port, "--igtl", allow_zero=True), host)
+    typer.echo(
+        f"streaming OpenIGTLink on {server.address}: IMAGE {IMAGE_NAME}, TRANSFORM "
+        f"{TRANSFORM_NAME} (mm)"
+    )
+    return server

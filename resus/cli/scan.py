@@ -34,6 +34,7 @@ from resus.cli.options import (
     SubjectOption,
     SweepOutOption,
     WebPortOption,
+    open_igtl_stream,
     recorded_subject_option,
 )
 from resus.cli.parsers import flag_error, parse_numbers, settings_from_flags
@@ -271,7 +272,8 @@ def scan(
                 )  # fmt: skip
                 listeners += [logger, live_volume]
             if igtl is not None:
-                listeners.append(_igtl_listener(viewer, probe_device, igtl, igtl_host))
+                stream = open_igtl_stream(probe_device.image_to_probe, igtl, igtl_host)
+                listeners.append(viewer.enter_context(stream))
             scanner = Scanner(robot_device, probe_device, limits, settings, listeners)
             name = subject_name
             if name is None:
@@ -288,18 +290,6 @@ def scan(
                 session.wait_until_interrupted()
     except RobotFault as fault:
         raise ResusError(f"robot {robot}: {fault}") from None
-
-
-def _igtl_listener(stack: contextlib.ExitStack, probe_device, port: int, host: str):
-    """An OpenIGTLink server streaming the scan's frames (closed with `stack`)."""
-    from resus.sweep.igtl import IMAGE_NAME, TRANSFORM_NAME, IgtlServer
-
-    server = stack.enter_context(IgtlServer(probe_device.image_to_probe, port, host))
-    typer.echo(
-        f"streaming OpenIGTLink on {server.address}: IMAGE {IMAGE_NAME}, TRANSFORM "
-        f"{TRANSFORM_NAME} (mm)"
-    )
-    return server
 
 
 def _live_listeners(

@@ -19,14 +19,13 @@ from resus.cli.options import (
     PhantomOption,
     SceneOption,
     SubjectOption,
+    open_igtl_stream,
 )
 from resus.cli.parsers import flag_error, parse_index_set, parse_numbers
 from resus.cli.plan import make_pattern
 from resus.errors import ResusError
 
 if TYPE_CHECKING:
-    import numpy as np
-
     from resus.acquisition.patterns import SweepPattern
 
 
@@ -115,7 +114,7 @@ def simulate(
         if igtl is None:
             job.run()
         else:
-            with _igtl_server(igtl, igtl_host, job.image_to_probe()) as server:
+            with open_igtl_stream(job.image_to_probe(), igtl, igtl_host) as server:
                 job.run(listeners=[server])
         outputs = [out]
     else:
@@ -136,19 +135,6 @@ def simulate(
         with SweepReader(outputs[0]) as sweep:
             save_contact_sheet(sweep, preview)
         typer.echo(f"wrote {preview}")
-
-
-def _igtl_server(port: int, host: str, image_to_probe: np.ndarray):
-    """An OpenIGTLink server for the simulated sweep's frames, placed by `image_to_probe`."""
-    from resus.sweep.igtl import IMAGE_NAME, TRANSFORM_NAME, IgtlServer, check_port
-
-    check_port(port, "--igtl", allow_zero=True)
-    server = IgtlServer(image_to_probe, port, host)
-    typer.echo(
-        f"streaming OpenIGTLink on {server.address}: IMAGE {IMAGE_NAME}, TRANSFORM "
-        f"{TRANSFORM_NAME} (mm)"
-    )
-    return server
 
 
 def register(app: typer.Typer) -> None:

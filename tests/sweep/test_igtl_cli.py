@@ -18,10 +18,13 @@ from sweep_samples import sample_sweep
 
 from resus.acquisition.backends.igtl import IgtlProbe, IgtlProbeConfig, ProbeLinkLost
 from resus.acquisition.backends.simulated import SimulatedProbeConfig
+from resus.acquisition.patterns import LinearPattern
 from resus.acquisition.probe import Frame
+from resus.acquisition.simulation import phantom_spec, resolve_scene
 from resus.cli.scan import parse_probe
 from resus.errors import ResusError
 from resus.sweep.io import read_sweep, write_sweep
+from sim.phantom import Phantom
 
 WAIT = 10.0
 FIRST_FRAME = 60.0
@@ -46,9 +49,11 @@ def receive_stream(command: list[str], first_frame: float = WAIT) -> Streamed:
     pipes = {"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True}
     with subprocess.Popen(command, **pipes) as run:
         try:
-            line = run.stdout.readline()
-            address = re.search(r"on 127\.0\.0\.1:(\d+)", line)
-            assert address is not None, line
+            address = None
+            while address is None:  # what it prints before it listens (e.g. scan's plan)
+                line = run.stdout.readline()
+                assert line, "ended before listening"
+                address = re.search(r"on 127\.0\.0\.1:(\d+)", line)
             frames: list[Frame] = []
             with (
                 IgtlProbe(IgtlProbeConfig(port=int(address[1]), timeout=first_frame)) as probe,
@@ -147,5 +152,24 @@ def test_simulate_streams_its_frames_placed_as_its_sweep_file_places_them(tmp_pa
     assert not np.allclose(sweep.image_to_probe, default, atol=1e-7)  # the preset's depth
     np.testing.assert_allclose(streamed.image_to_probe, sweep.image_to_probe, atol=1e-7)
     assert 1 <= len(streamed.frames) <= len(sweep)  # those from the moment it connected
+    received = np.stack([frame.image for frame in streamed.frames])
+    np.testing.assert_array_equal(received, sweep.frames[len(sweep) - len(received) :])
+
+
+def test_scan_streams_its_frames_placed_as_its_sweep_file_places_them(tmp_path):
+    """`resus scan --igtl` sends each frame it records, placed by its probe's calibration."""
+    scene, plan, out = resolve_scene("default", None, None), tmp_path / "p.yaml", tmp_path / "s.h5"
+    pattern = LinearPattern(length=0.004, speed=0.01, frame_rate=10.0, contact_force=None)
+    pattern.trajectory(Phantom(phantom_spec(scene)), scene.phantom_to_base).to_yaml(plan)
+    streamed = receive_stream(
+        [sys.executable, "-m", "resus", "scan", "--robot", "sim", "--probe", "sim:48x32",
+         "--trajectory", str(plan), "--out", str(out), "--yes", "--igtl", "0"],
+        first_frame=FIRST_FRAME,
+    )  # fmt: skip
+    assert streamed.returncode == 0, streamed.stderr
+    sweep = read_sweep(out)
+    assert sweep.frames.shape[1:] == (32, 48)
+    np.testing.assert_allclose(streamed.image_to_probe, sweep.image_to_probe, atol=1e-7)
+    assert 1 <= len(streamed.frames) <= len(sweep)
     received = np.stack([frame.image for frame in streamed.frames])
     np.testing.assert_array_equal(received, sweep.frames[len(sweep) - len(received) :])
