@@ -191,3 +191,82 @@ def test_nothing_to_read_or_write_is_one_line(sweep, tmp_path):
         attach_labels(sweep, tmp_path / "nowhere")
     with pytest.raises(ResusError, match="the sweep has no labels to export"):
         export_labels(dataclasses.replace(sweep, labels=None), tmp_path / "out")
+
+
+def damage_labelmap(text: str):
+    def damage(folder: Path) -> Path:
+        (folder / "labelmap.txt").write_text(text)
+        return folder / "labelmap.txt"
+
+    return damage
+
+
+def damage_bytes(relative: str, content: bytes):
+    def damage(folder: Path) -> Path:
+        (folder / relative).write_bytes(content)
+        return folder / relative
+
+    return damage
+
+
+def no_masks_folder(folder: Path) -> Path:
+    shutil.rmtree(folder / "SegmentationClass")
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        (damage_labelmap("artery:250,50::\n"), "line 1: expected 'name:r,g,b::', got 'artery"),
+        (damage_labelmap("artery:256,0,0::\n"), "line 1: expected 'name:r,g,b::'"),
+        (
+            damage_labelmap("# a comment\nartery:1,2,3::\nvein:1,2,3::\n"),
+            "line 3: colour (1, 2, 3) is given to two classes",
+        ),
+        (damage_labelmap("# label:color_rgb:parts:actions\n\n"), "lists no classes"),
+        (damage_bytes("labelmap.txt", b"artery:\xff\xfe"), "cannot read the labelmap"),
+        (no_masks_folder, "has labelmap.txt but no SegmentationClass folder"),
+        (
+            damage_bytes("SegmentationClass/frame_000002.png", b"not a png"),
+            "not a readable PNG image",
+        ),
+    ],
+    ids=["two numbers", "over 255", "one colour twice", "no class", "not text", "no masks", "png"],
+)
+def test_a_broken_cvat_export_is_one_line_naming_the_file(sweep, tmp_path, damage, message):
+    export_labels(sweep, tmp_path / "cvat")
+    broken = damage(tmp_path / "cvat")
+    with pytest.raises(ResusError) as error:
+        attach_labels(sweep, tmp_path / "cvat")
+    assert one_line(error, message).startswith(str(broken))
+
+
+def test_masks_with_alpha_or_in_grey_read_as_their_colours(sweep, tmp_path):
+    """CVAT's masks are RGB; an editor may save them with an alpha channel, or as grey when
+    every colour of the labelmap is a grey."""
+    export_labels(sweep, tmp_path / "cvat")
+    mask = tmp_path / "cvat/SegmentationClass/frame_000001.png"
+    bgr = cv2.imread(str(mask))
+    assert cv2.imwrite(str(mask), np.dstack([bgr, np.full(bgr.shape[:2], 255, np.uint8)]))
+    np.testing.assert_array_equal(attach_labels(sweep, tmp_path / "cvat").labels, sweep.labels)
+
+    greys = {"background": (0, 0, 0), "artery": (90, 90, 90), "vein": (180, 180, 180)}
+    folder = cvat_folder(tmp_path / "grey", sweep.labels, greys, dict(enumerate(greys)))
+    for path in (folder / "SegmentationClass").glob("*.png"):
+        assert cv2.imwrite(str(path), cv2.imread(str(path), cv2.IMREAD_GRAYSCALE))
+    np.testing.assert_array_equal(read_label_masks(folder, 5, (ROWS, COLS)), sweep.labels)
+
+
+def test_a_colour_plain_mask_or_one_without_a_frame_number_is_one_line(sweep, tmp_path):
+    for index, label in enumerate(sweep.labels):
+        assert cv2.imwrite(str(tmp_path / f"frame_{index:06d}.png"), label)
+    colour = tmp_path / "frame_000003.png"
+    assert cv2.imwrite(str(colour), np.dstack([sweep.labels[3]] * 3))
+    with pytest.raises(ResusError) as error:
+        attach_labels(sweep, tmp_path)
+    one_line(error, f"{colour}: is a colour image: plain label PNGs hold the values 0, 1, 2")
+    assert cv2.imwrite(str(colour), sweep.labels[3])
+    (tmp_path / "frame_000004.png").rename(tmp_path / "last.png")
+    with pytest.raises(ResusError) as error:
+        attach_labels(sweep, tmp_path)
+    one_line(error, f"{tmp_path / 'last.png'}: mask 'last' does not end in a frame number")
