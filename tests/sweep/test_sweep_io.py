@@ -183,6 +183,13 @@ def _set_attribute(name, value):
     return edit
 
 
+def _no_frames(file: h5py.File) -> None:
+    """Every dataset with a row per frame emptied: a sweep that recorded nothing."""
+    count = len(file["timestamps"])
+    for name in [name for name, item in file.items() if item.ndim and len(item) == count]:
+        _replace_dataset(name, file[name][:0])(file)
+
+
 SHEAR = np.array([[1.0, 0.2, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
 BAD_FILES = {
     "NaN pose": (_set_dataset("probe_to_base", (3, 1, 3), np.nan), "probe_to_base[3][1][3] is nan"),
@@ -208,6 +215,15 @@ BAD_FILES = {
         "image_to_probe is not invertible",
     ),
     "bad source": (_set_attribute("source", "moon"), "source must be one of"),
+    "float frames": (
+        _replace_dataset("frames", np.zeros((6, 24, 32), np.float32)),
+        "frames must be (N, H, W) uint8, got (6, 24, 32) float32",
+    ),
+    "provenance not JSON": (
+        _set_attribute("provenance", "{not json"),
+        "attribute 'provenance' is not JSON",
+    ),
+    "no frames": (_no_frames, "the sweep holds no frames"),
 }
 
 
@@ -246,6 +262,8 @@ def test_files_that_are_not_sweeps_are_refused(tmp_path, good_file):
     half = tmp_path / "half.h5"
     data = good_file.read_bytes()
     half.write_bytes(data[: len(data) // 2])
+    damaged = tmp_path / "damaged.h5"
+    damaged.write_bytes(data[:2000] + bytes(400) + data[2400:])  # its metadata overwritten
     other = tmp_path / "other.h5"
     with h5py.File(other, "w") as file:
         file["x"] = np.arange(3)
@@ -255,6 +273,7 @@ def test_files_that_are_not_sweeps_are_refused(tmp_path, good_file):
         text: "not an HDF5 file",
         png: "not an HDF5 file",
         half: "HDF5 file is truncated",
+        damaged: "(incorrect metadata checksum",
         other: "not a resus sweep",
     }
     for path, message in cases.items():
