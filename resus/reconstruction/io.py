@@ -18,6 +18,7 @@ import numpy as np
 
 from resus.errors import ResusError
 from resus.reconstruction.grid import VolumeGrid
+from resus.sweep.io import error_summary
 from resus.sweep.timestamps import now
 
 MM = 1e3
@@ -118,7 +119,7 @@ def read_volume(path: str | Path) -> tuple[np.ndarray, VolumeGrid, list[str] | N
         try:
             array, header = nrrd.read(str(path), index_order="F")
         except Exception as error:
-            raise ResusError(f"not a readable NRRD volume ({error})", path) from error
+            raise ResusError(f"not a readable NRRD volume ({error_summary(error)})", path) from None
         if array.ndim != 3:
             raise ResusError(f"expected a 3D volume, got {array.ndim} dimensions", path)
         axes = (
@@ -139,7 +140,9 @@ def read_volume(path: str | Path) -> tuple[np.ndarray, VolumeGrid, list[str] | N
         try:
             image = sitk.ReadImage(str(path))
         except RuntimeError as error:
-            raise ResusError(f"not a readable MetaImage volume ({error})", path) from error
+            raise ResusError(
+                f"not a readable MetaImage volume ({error_summary(error)})", path
+            ) from None
         if image.GetDimension() != 3:
             raise ResusError(f"expected a 3D volume, got {image.GetDimension()} dimensions", path)
         array = sitk.GetArrayFromImage(image).transpose(2, 1, 0)
@@ -174,7 +177,7 @@ def volume_subject(path: str | Path) -> str | None:
         try:
             return nrrd.read_header(str(path)).get(SUBJECT_FIELD) or None
         except Exception as error:  # pynrrd raises several kinds for a file that is not NRRD
-            raise ResusError(f"not a readable NRRD volume ({error})", path) from None
+            raise ResusError(f"not a readable NRRD volume ({error_summary(error)})", path) from None
     import SimpleITK as sitk
 
     reader = sitk.ImageFileReader()
@@ -182,7 +185,8 @@ def volume_subject(path: str | Path) -> str | None:
     try:
         reader.ReadImageInformation()
     except RuntimeError as error:
-        raise ResusError(f"not a readable MetaImage volume ({error})", path) from None
+        summary = error_summary(error)
+        raise ResusError(f"not a readable MetaImage volume ({summary})", path) from None
     return reader.GetMetaData(SUBJECT_FIELD) if reader.HasMetaDataKey(SUBJECT_FIELD) else None
 
 

@@ -97,3 +97,62 @@ def test_intensities_round_and_clip_to_uint8() -> None:
     np.testing.assert_array_equal(
         intensity_to_uint8(np.array([-3.0, 0.4, 0.6, 254.7, 300.0])), [0, 0, 1, 255, 255]
     )
+
+
+def test_a_slicer_volume_in_ras_lands_where_the_same_volume_in_lps_does(tmp_path: Path) -> None:
+    """3D Slicer may save a volume with RAS coordinates: x and y point the other way than in
+    the LPS files this project, ITK and PLUS write, so they change sign on reading."""
+    import nrrd
+
+    ras_directions = np.array([[0.5, 0.1, 0.0], [0.0, -0.4, 0.0], [0.0, 0.0, 0.3]])  # mm
+    ras_origin = np.array([-12.0, 34.0, 56.0])
+    header = {"space": "right-anterior-superior", "space directions": ras_directions,
+              "space origin": ras_origin}  # fmt: skip
+    volume = np.arange(24, dtype=np.uint8).reshape(4, 3, 2)
+    nrrd.write(str(tmp_path / "ras.nrrd"), volume, header, index_order="F")
+    array, grid, _ = read_volume(tmp_path / "ras.nrrd")
+    np.testing.assert_array_equal(array, volume)
+    index = np.array([3, 1, 1])
+    ras_mm = ras_origin + index @ ras_directions
+    lps_m = ras_mm * [-1.0, -1.0, 1.0] * 1e-3
+    np.testing.assert_allclose(grid.origin + index @ grid.axes, lps_m, atol=1e-12)
+    lps = VolumeGrid(
+        origin=ras_origin * [-1.0, -1.0, 1.0] * 1e-3,
+        axes=ras_directions * [-1.0, -1.0, 1.0] * 1e-3,
+        shape=volume.shape,
+    )
+    written = write_volume(tmp_path / "lps.nrrd", volume, lps)
+    assert read_volume(written)[1].places_like(grid)
+
+
+def test_an_nrrd_with_spacings_alone_is_an_axis_aligned_grid_at_zero(tmp_path: Path) -> None:
+    import nrrd
+
+    volume = np.zeros((3, 4, 5), np.uint8)
+    nrrd.write(str(tmp_path / "old.nrrd"), volume, {"spacings": [0.5, 0.25, 2.0]})
+    _, grid, names = read_volume(tmp_path / "old.nrrd")
+    np.testing.assert_allclose(grid.axes, np.diag([0.5e-3, 0.25e-3, 2e-3]), atol=1e-15)
+    np.testing.assert_allclose(grid.origin, 0.0)
+    assert names is None
+
+
+def test_volumes_that_are_not_3d_or_not_readable_are_one_line(tmp_path: Path) -> None:
+    import nrrd
+    import SimpleITK as sitk
+
+    nrrd.write(str(tmp_path / "flat.nrrd"), np.zeros((3, 4), np.uint8))
+    sitk.WriteImage(sitk.GetImageFromArray(np.zeros((3, 4), np.uint8)), str(tmp_path / "flat.mha"))
+    (tmp_path / "junk.mha").write_text("not a volume")
+    (tmp_path / "junk.nrrd").write_text("not a volume")
+    cases = [
+        (read_volume, "flat.nrrd", "expected a 3D volume, got 2 dimensions"),
+        (read_volume, "flat.mha", "expected a 3D volume, got 2 dimensions"),
+        (read_volume, "junk.mha", "not a readable MetaImage volume"),
+        (volume_subject, "junk.mha", "not a readable MetaImage volume"),
+        (volume_subject, "junk.nrrd", "not a readable NRRD volume"),
+    ]
+    for read, name, message in cases:
+        with pytest.raises(ResusError) as error:
+            read(tmp_path / name)
+        text = str(error.value)
+        assert text.startswith(f"{tmp_path / name}: {message}") and "\n" not in text, text
