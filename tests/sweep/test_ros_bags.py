@@ -411,3 +411,43 @@ def test_images_outside_the_pose_stream_or_no_bag_are_one_line(tmp_path):
     export_ros(sweep, tmp_path / "exists")
     with pytest.raises(ResusError, match="exists: exists already"):
         export_ros(sweep, tmp_path / "exists")
+
+
+def test_a_calibration_with_a_crop_crops_every_image_and_places_the_cropped_pixels(tmp_path):
+    """The frame grabber's crop of a probe calibration applies to bag images too: the sweep
+    holds the cropped images, and its calibration maps their pixels (pixel (0, 0) is the
+    crop's corner) as the calibration file says."""
+    images, truth = frames(3, seed=4), poses(3, seed=4)
+    bag = Bag(ros=2)
+    for k in range(3):
+        bag.pose("/pose", T0 + k * NS, truth[k])
+        bag.image("/us", T0 + k * NS, images[k])
+    path = bag.write(tmp_path / "cropped")
+    calibration = tmp_path / "probe.yaml"
+    calibration.write_text(
+        yaml.safe_dump(
+            {"schema": "resus.probe/1", "pixel_spacing_mm": [0.2, 0.3], "crop": [5, 2, 40, 28]}
+        )
+    )
+    sweep = import_ros(path, "/us", pose_topic="/pose", calibration=calibration).sweep
+    np.testing.assert_array_equal(sweep.frames, images[:, 2:30, 5:45])
+    # ProbeCalibration's convention: the cropped image's top row lies on the array (pixel
+    # centres half a row deep), its middle column at the array's centre; x along the array,
+    # z along the beam (metres)
+    middle = sweep.image_to_probe @ [19.5, 0.0, 0.0, 1.0]
+    np.testing.assert_allclose(middle[:3], [0.0, 0.0, 0.15e-3], atol=1e-12)
+    corner = sweep.image_to_probe @ [0.0, 0.0, 0.0, 1.0]
+    far = sweep.image_to_probe @ [39.0, 27.0, 0.0, 1.0]
+    np.testing.assert_allclose(far[:3] - corner[:3], [39 * 0.2e-3, 0.0, 27 * 0.3e-3], atol=1e-12)
+
+    calibration.write_text(
+        yaml.safe_dump(
+            {"schema": "resus.probe/1", "pixel_spacing_mm": [0.2, 0.3], "crop": [20, 0, 40, 28]}
+        )
+    )
+    with pytest.raises(ResusError) as error:
+        import_ros(path, "/us", pose_topic="/pose", calibration=calibration)
+    assert str(error.value) == (
+        f"{calibration}: crop (20, 0, 40, 28) (x, y, width, height) reaches outside the bag's "
+        f"{COLS} x {ROWS} images"
+    )
