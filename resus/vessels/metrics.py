@@ -165,14 +165,17 @@ def surface_scores(
     in_region: InRegion,
     seed: int,
 ) -> SurfaceDistances | None:
-    """Mean, HD95 and both one-way means (mm) between a map surface and the true one (None
-    without a map surface or without true surface in the region)."""
+    """Mean, HD95 and both one-way means (mm) between a map surface and the true one; None
+    when either has no surface in the region (e.g. a map that fills the swept volume has its
+    surface on the region's border, outside it), since the distances need samples of both."""
     truth_points = surface_samples(truth_mesh, SURFACE_SAMPLES, seed)
     truth_points = truth_points[in_region(truth_points)]
     if mesh is None or len(truth_points) == 0:
         return None
     map_points = surface_samples(mesh, SURFACE_SAMPLES, seed + 1)
     map_points = map_points[in_region(map_points)]
+    if len(map_points) == 0:
+        return None
     map_to_truth = np.abs(truth_sdf(map_points))
     truth_to_map = MeshDistance(mesh)(truth_points)
     return SurfaceDistances(

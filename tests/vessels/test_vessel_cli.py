@@ -93,3 +93,34 @@ def test_a_map_without_vessels_writes_no_meshes_instead_of_failing(tmp_path: Pat
     from resus.vessels import write_meshes
 
     assert write_meshes(tmp_path, {}) == [] and not list(tmp_path.iterdir())
+
+
+def test_a_model_labels_the_frames_when_the_sweep_has_no_labels_to_use(
+    sweep_path: Path, tmp_path: Path
+) -> None:
+    """`--model` segments every frame and maps what it calls vessel: a model that calls every
+    pixel artery maps one artery filling the swept volume and no vein; one that calls none
+    leaves nothing to map, which is one line."""
+    from tiny_models import tiny_checkpoint
+
+    everywhere = tmp_path / "artery.pt"
+    tiny_checkpoint(everywhere, label=1)
+    out = tmp_path / "map"
+    done = resus("vessels", sweep_path, "--model", everywhere, "--out", out, "--spacing", "1e-3")
+    assert done.returncode == 0, done.stderr
+    metrics = json.loads((out / "vessels.json").read_text())
+    assert metrics["labels"] == f"model {everywhere}"
+    assert (out / "artery.ply").is_file() and not (out / "vein.ply").exists()
+    # its surface is the swept volume's border, outside the region scored: no distances
+    # (this was an IndexError from an empty percentile), but a Dice
+    artery = metrics["scores"]["artery"]
+    assert artery["mean_surface_distance_mm"] is None and artery["hd95_mm"] is None
+    assert 0.0 < artery["dice"] < 0.2
+
+    nowhere = tmp_path / "background.pt"
+    tiny_checkpoint(nowhere, label=0)
+    done = resus("vessels", sweep_path, "--model", nowhere, "--out", tmp_path / "none")
+    assert done.returncode == 2
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error")]
+    assert errors == ["error: no pixel is labelled artery or vein: there is nothing to map"]
+    assert "Traceback" not in done.stderr
