@@ -1,6 +1,8 @@
 """Plan checks: a good sweep passes every check; each kind of bad plan fails the right check
 at the right place, judged against independent computations."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -156,3 +158,39 @@ def test_the_force_check_runs_the_plan_and_fails_a_fan_pressed_too_hard(default_
     assert "exceeds the limit 20.0 N" in force.summary and "rock more slowly" in force.advice
     assert analysis.force.forces.max() > 20.0
     assert 0.0 < force.place.time < fan.duration  # while rocking, not pressing on
+
+
+def sunk(trajectory: Trajectory, depth: float) -> Trajectory:
+    """`trajectory` lowered by `depth` into the phantom, in position control."""
+    waypoints = trajectory.waypoints.copy()
+    waypoints[:, 2, 3] -= depth
+    return dataclasses.replace(trajectory, waypoints=waypoints, contact_force=None)
+
+
+def test_a_probe_sunk_into_the_phantom_collides_once_its_housing_reaches_it(default_scene):
+    """The probe's face may touch the phantom (it images through it), its housing may not.
+    The housing starts 44.5 mm above the lens (the TCP): sunk 30 mm into the 60 mm block the
+    housing stays above the phantom's top, and only the force the simulated scan reads stops
+    the plan; sunk 50 mm it is 5.5 mm inside, and the collision check names the two."""
+    scene, phantom = default_scene
+    path = linear_sweep(phantom, scene.phantom_to_base, length=0.02)
+    shallow = check_plan(sunk(path, 0.03), scene, phantom)
+    assert shallow.check("collisions").passed
+    force = shallow.check("contact force")
+    assert force.summary.startswith(
+        "position control; the simulated scan stopped: protective stop: TCP force"
+    )  # once: the simulated robot's fault no longer says "protective stop" twice
+    deep = check_plan(sunk(path, 0.05), scene, phantom)
+    collisions = deep.check("collisions")
+    assert not collisions.passed and collisions.summary == "probe geom and phantom collide"
+    assert collisions.place.time == 0.0 and "clears the table and phantom" in collisions.advice
+
+
+@pytest.mark.parametrize(("force", "advised"), [(25.0, 20), (0.5, 1)])
+def test_a_contact_force_outside_its_bounds_fails_before_any_scan(default_scene, force, advised):
+    scene, phantom = default_scene
+    plan = linear_sweep(phantom, scene.phantom_to_base, length=0.02, contact_force=force)
+    check = check_plan(plan, scene, phantom).check("contact force")
+    assert not check.passed
+    assert check.summary == f"{force:.1f} N set (bounds 1-20 N)"
+    assert check.advice == f"set the contact force to {advised} N" and check.place.time == 0.0

@@ -85,8 +85,8 @@ class SimulatedRobot(Robot):
         """Run a motion command; a robot that refuses it raises RobotFault."""
         try:
             method(*args)
-        except ProtectiveStopError as error:
-            raise RobotFault(f"protective stop: {error}") from None
+        except ProtectiveStopError as error:  # its message says it is a protective stop
+            raise RobotFault(str(error)) from None
         except ValueError as error:
             raise RobotFault(str(error)) from None
 
