@@ -92,3 +92,57 @@ def test_rejects_degenerate_paths_naming_the_field() -> None:
     sheared[0, 1] = 0.5
     with pytest.raises(ResusError, match=r"^Trajectory\.waypoints\[1\] is not a rigid transform"):
         Trajectory(waypoints=np.stack([pose, sheared]))
+
+
+POSE = make_pose(DOWN, [0.3, 0.0, 0.1])
+THREE = np.stack([POSE, make_pose(DOWN, [0.3, 0.01, 0.1]), make_pose(DOWN, [0.3, 0.01, 0.1])])
+
+
+REFUSED = {
+    "one pose": (
+        lambda: Trajectory(waypoints=POSE[None]),
+        r"waypoints must be at least 2 poses of 4x4, got \(1, 4, 4\)",
+    ),
+    "coinciding": (lambda: Trajectory(waypoints=THREE), r"waypoints\[1\] and \[2\] coincide"),
+    "force": (lambda: straight(contact_force=-1.0), r"contact_force must be positive, got -1\.0"),
+    "approach": (
+        lambda: straight(approach_height=-0.01),
+        r"approach_height must be >= 0, got -0\.01",
+    ),
+    "nan knot": (
+        lambda: straight(force_profile=[(0.0, 4.0), (1.0, np.nan)]),
+        r"force_profile must be finite numbers, got \[\(0\.0, 4\.0\), \(1\.0, nan\)\]",
+    ),
+    "triple": (
+        lambda: straight(force_profile=[(0.0, 4.0, 1.0)]),
+        r"force_profile must be a list of pairs, got \[\(0\.0, 4\.0, 1\.0\)\]",
+    ),
+    "first knot": (
+        lambda: straight(force_profile=[(0.0, 3.0), (1.0, 5.0)]),
+        r"force_profile starts at 3\.0 N, not at contact_force 4\.0 N",
+    ),
+    "same time": (
+        lambda: straight(force_profile=[(0.0, 4.0), (0.0, 5.0)]),
+        r"force_profile must be \(time s, force N\) knots at increasing times >= 0",
+    ),
+    "no force mode": (
+        lambda: straight(contact_force=None, force_profile=[(0.0, 4.0)]),
+        r"force_profile needs force mode: set contact_force",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", REFUSED)
+def test_every_refused_field_is_named(case: str) -> None:
+    make, message = REFUSED[case]
+    with pytest.raises(ResusError, match=rf"^Trajectory\.{message}"):
+        make()
+
+
+def test_a_refused_field_in_a_file_names_the_file_too(tmp_path) -> None:
+    path = tmp_path / "plan.yaml"
+    straight(contact_force=4.0).to_yaml(path)
+    path.write_text(path.read_text().replace("contact_force: 4.0", "contact_force: -2.0"))
+    with pytest.raises(ResusError) as error:
+        Trajectory.from_yaml(path)
+    assert str(error.value) == f"{path}: Trajectory.contact_force must be positive, got -2.0"
