@@ -19,7 +19,7 @@ import pytest
 import yaml
 from sweep_samples import sample_sweep
 
-from resus.acquisition.backends.igtl import IgtlProbe, IgtlProbeConfig, ProbeLinkLost
+from resus.acquisition.backends.igtl import IgtlProbe, IgtlProbeConfig, ProbeLinkLost, grey_frame
 from resus.acquisition.backends.simulated import SimulatedRobot
 from resus.acquisition.patterns import linear_sweep
 from resus.acquisition.scanner import ScanAborted, Scanner, ScannerSettings
@@ -308,4 +308,28 @@ def test_colour_images_turn_grey_and_unusable_ones_are_one_line():
     assert str(error.value) == (
         f"OpenIGTLink server 127.0.0.1:{port}: IMAGE pixels are uint16; expected 8-bit images "
         "(received: IMAGE Image_Probe)"
+    )
+
+
+def test_images_that_are_not_one_grey_or_rgb_frame_are_refused_by_name():
+    """An IMAGE array is (slices, rows, cols[, components]): one slice of grey, RGB or RGBA."""
+    rgba = np.random.default_rng(17).integers(0, 256, (1, 8, 12, 4), dtype=np.uint8)
+    np.testing.assert_array_equal(grey_frame(rgba), grey_frame(rgba[..., :3]))  # alpha ignored
+    with pytest.raises(ResusError, match=r"^IMAGE is a volume of 3 slices; expected one frame$"):
+        grey_frame(np.zeros((3, 8, 12), np.uint8))
+    with pytest.raises(
+        ResusError, match=r"^IMAGE has 2 components per pixel; expected grey or RGB"
+    ):
+        grey_frame(np.zeros((1, 8, 12, 2), np.uint8))
+
+
+def test_a_calibration_that_crops_is_refused_for_an_igtl_stream(tmp_path):
+    calibration = tmp_path / "probe.yaml"
+    document = {"schema": "resus.probe/1", "pixel_spacing_mm": [0.2, 0.2], "crop": [0, 0, 8, 8]}
+    calibration.write_text(yaml.safe_dump(document))
+    with pytest.raises(ResusError) as error:
+        IgtlProbe(IgtlProbeConfig(port=18944, calibration=calibration))  # refused before connecting
+    assert str(error.value) == (
+        f"{calibration}: crop does not apply to OpenIGTLink images (the server sends the B-mode "
+        "image itself)"
     )
