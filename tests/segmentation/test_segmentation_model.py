@@ -1,5 +1,7 @@
 """The U-Net, its ImageNet encoder from a local file, checkpoints and device choice."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -10,7 +12,7 @@ from resus.segmentation.checkpoint import load_checkpoint, save_checkpoint
 from resus.segmentation.inference import class_argmax, predict
 from resus.segmentation.loso import run_loso, unavailable_reason
 from resus.segmentation.model import build_model, resolve_device
-from resus.segmentation.presets import QUICK, get_preset
+from resus.segmentation.presets import QUICK, ModelConfig, get_preset
 from resus.segmentation.synthetic import synthetic_subject
 
 torch.set_num_threads(1)  # one per pytest-xdist worker: more oversubscribes the 2 cores
@@ -109,3 +111,38 @@ def test_class_argmax_is_torch_argmax_first_class_on_ties() -> None:
     labels = class_argmax(logits)
     assert labels.dtype == torch.uint8
     assert torch.equal(labels.long(), logits.argmax(1))
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda: ModelConfig(encoder_depth=3, decoder_channels=(64, 32)),
+         r"ModelConfig\.decoder_channels needs one channel count per encoder stage"),
+        (lambda: ModelConfig(encoder_depth=4, decoder_channels=(64, 32, 16, 8), image_size=100),
+         r"ModelConfig\.image_size 100 must be divisible by 2\*\*encoder_depth = 16"),
+        (lambda: dataclasses.replace(QUICK, validation_fraction=1.0),
+         r"TrainingPreset\.validation_fraction must be in \(0, 1\), got 1\.0"),
+        (lambda: dataclasses.replace(QUICK, patience=0),
+         r"TrainingPreset\.patience must be at least 1, got 0"),
+        (lambda: dataclasses.replace(QUICK, max_epochs=5, weight_averaging_epochs=6),
+         r"TrainingPreset\.weight_averaging_epochs must be in \[0, max_epochs = 5\]"),
+    ],
+)  # fmt: skip
+def test_refused_model_and_training_settings_are_named(make, message: str) -> None:
+    with pytest.raises(ResusError, match=rf"^{message}"):
+        make()
+
+
+def test_predict_refuses_what_it_cannot_segment() -> None:
+    model = build_model(QUICK.model)
+    images = np.zeros((2, 16, 16), np.uint8)
+    cases = [
+        ({"images": images.astype(np.float32)}, r"needs \(N, H, W\) uint8 images, got \(2, 16"),
+        ({"images": images[0]}, r"needs \(N, H, W\) uint8 images, got \(16, 16\) uint8"),
+        ({"model": []}, r"needs at least one model"),
+        ({"input_sizes": [64, 0]}, r"needs positive input sizes, got \[64, 0\]"),
+    ]
+    for changes, message in cases:
+        arguments = {"model": model, "images": images, **changes}
+        with pytest.raises(ResusError, match=rf"^predict {message}"):
+            predict(arguments.pop("model"), arguments.pop("images"), image_size=64, **arguments)

@@ -266,3 +266,21 @@ def test_a_simulated_press_of_the_femoral_phantom_is_told_apart(tmp_path, monkey
     assert artery["area_vs_force"]["collapse_ratio"] > 0.9
     assert artery["heart_rate_bpm"] == pytest.approx(72.0, abs=3.0)
     assert written["scores"]["vein"]["dice"] > 0.5, written["scores"]
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"min_frames": 2}, r"CompressionSettings\.min_frames must be at least 3, got 2$"),
+        ({"min_force_span": 0.0}, r"CompressionSettings\.min_force_span must be positive, got 0"),
+        ({"trend_window": -1.0}, r"CompressionSettings\.trend_window must be positive, got -1"),
+        ({"min_prominence": 0.0}, r"CompressionSettings\.min_prominence must be positive"),
+        ({"round_ratio": 1.5}, r"CompressionSettings\.round_ratio must lie in \(0, 1\], got 1\.5"),
+        ({"heart_band": (1.7, 1.0)}, r"CompressionSettings\.heart_band must be \(low, high\) Hz"),
+        ({"spectrum_band": (0.0, 4.0)}, r"CompressionSettings\.spectrum_band must be \(low, hi"),
+        ({"shut_ratio": 0.0}, r"CompressionSettings needs 0 < shut_ratio < collapse_ratio"),
+    ],
+)
+def test_every_refused_compression_setting_is_named(changes: dict, message: str) -> None:
+    with pytest.raises(ResusError, match=rf"^{message}"):
+        CompressionSettings(**changes)
