@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import re
 from collections.abc import Callable, Collection, Iterator
 from typing import TypeVar, overload
 
@@ -127,7 +128,7 @@ def settings_from_flags(make: Callable[..., T], **flags: tuple[str, object]) -> 
 
     Which value was refused is found by passing each alone (the others at `make`'s defaults),
     so the check stays in the library, in one place. A refused combination of values keeps
-    the library's message.
+    the library's message, with each setting it names as `Settings.field` put as its flag.
     """
     try:
         return make(**{field: value for field, (_, value) in flags.items()})
@@ -135,4 +136,7 @@ def settings_from_flags(make: Callable[..., T], **flags: tuple[str, object]) -> 
         for field, (option, value) in flags.items():
             with flag_error(option):
                 make(**{field: value})
-        raise ResusError(str(error)) from None
+        message = str(error)
+        for field, (option, _) in flags.items():
+            message = re.sub(rf"\b[A-Z]\w*\.{field}\b", option, message)
+        raise ResusError(message) from None

@@ -6,10 +6,8 @@ from pathlib import Path
 
 import typer
 
-from resus.cli.parsers import parse_choice, parse_numbers, settings_from_flags
+from resus.cli.parsers import parse_numbers, settings_from_flags
 from resus.errors import ResusError
-
-GRIDS = ("ransac", "aabb")
 
 
 def _load_sweep(path: Path, calibration: Path | None):
@@ -72,19 +70,20 @@ def register(app: typer.Typer) -> None:
 
         from resus.reconstruction.compounding import ReconstructionSettings, reconstruct
         from resus.reconstruction.figures import save_slices_png
-        from resus.reconstruction.grid import aabb_grid
+        from resus.reconstruction.grid_settings import GridSettings
         from resus.reconstruction.io import intensity_to_uint8, volume_suffix, write_volume
-        from resus.reconstruction.parallelepiped import ransac_grid
 
-        parse_choice(grid_kind, "--grid", GRIDS)
-        if voxels is not None and grid_kind == "aabb":
-            raise ResusError(
-                "--voxels sets the RANSAC grid's counts; the aabb grid takes --spacing"
-            )
         shape: tuple[int, int, int] | None = None
         if voxels is not None:
             nx, ny, nz = parse_numbers(voxels, "--voxels", count=3, kind=int)
             shape = (nx, ny, nz)
+        grid_settings = settings_from_flags(
+            GridSettings,
+            kind=("--grid", grid_kind),
+            spacing=("--spacing", spacing),
+            voxels=("--voxels", shape),
+            seed=("--seed", seed),
+        )
         settings = settings_from_flags(
             ReconstructionSettings,
             method=("--method", method),
@@ -99,22 +98,12 @@ def register(app: typer.Typer) -> None:
         for path in (out, labels_out):
             if path is not None:
                 volume_suffix(path)
-        if not spacing > 0:
-            raise ResusError(f"--spacing must be positive, got {spacing}")
         sweep = _load_sweep(sweep_path, calibration)
         poses = np.asarray(sweep.probe_to_base)
         frame_shape = tuple(sweep.frames.shape[1:])
         if len(poses) == 0:
             raise ResusError("the sweep has no frames", sweep_path)
-        if grid_kind == "aabb":
-            grid = aabb_grid(
-                spacing, poses=poses, image_to_probe=sweep.image_to_probe, frame_shape=frame_shape
-            )
-        else:
-            grid = ransac_grid(
-                poses, sweep.image_to_probe, frame_shape, shape,
-                spacing=None if shape else spacing, seed=seed,
-            )  # fmt: skip
+        grid = grid_settings.around(poses, sweep.image_to_probe, frame_shape)
         typer.echo(f"grid: {grid_kind}, {grid.describe()}")
         if labels_out is not None and sweep.labels is None:
             raise ResusError("--labels-out given but the sweep has no labels", sweep_path)

@@ -30,12 +30,12 @@ from resus.execution import (
     write_json,
 )
 from resus.reconstruction.compounding import ReconstructionSettings
+from resus.reconstruction.grid_settings import GRIDS, GridSettings
 from resus.reslicing.reslice import ResliceSettings
 from sim.labels import LABEL_NAMES
 from sim.phantom.loader import load_phantom
 from sim.ultrasound.scanner import ScannerPreset, scanner_preset
 
-GRIDS = ("ransac", "aabb")
 RECORD = "scan.json"
 
 
@@ -270,9 +270,7 @@ def _reconstruct(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
     import numpy as np
 
     from resus.reconstruction.compounding import reconstruct
-    from resus.reconstruction.grid import aabb_grid
     from resus.reconstruction.io import intensity_to_uint8, write_volume
-    from resus.reconstruction.parallelepiped import ransac_grid
     from resus.sweep.io import read_sweep
 
     sweep = read_sweep(data.sweep)
@@ -280,12 +278,7 @@ def _reconstruct(data: SubjectData, scan: Scan, settings: ScanSettings) -> None:
         raise ResusError("an experiment sweep needs at least 2 labelled frames", data.sweep)
     poses = np.asarray(sweep.probe_to_base)
     shape = tuple(sweep.frames.shape[1:])
-    if settings.grid == "aabb":
-        grid = aabb_grid(
-            settings.spacing, poses=poses, image_to_probe=sweep.image_to_probe, frame_shape=shape
-        )
-    else:
-        grid = ransac_grid(poses, sweep.image_to_probe, shape, spacing=settings.spacing)
+    grid = GridSettings(settings.grid, settings.spacing).around(poses, sweep.image_to_probe, shape)
     names = list(sweep.label_names)
     result = reconstruct(
         sweep.frames, poses, sweep.image_to_probe, grid, settings.reconstruction,

@@ -178,10 +178,13 @@ def test_bad_value(monkeypatch, capsys, tmp_path, path):
             "--port-base: port base 70000 puts the ports at 99999-100004, outside 1-65535",
         ),
         (["reconstruct", "s.h5", "--out", "v.nrrd", "--voxels", "8,8"], "--voxels: expected 3"),
-        (["reconstruct", "s.h5", "--out", "v.nrrd", "--grid", "sphere"], "--grid must be one of"),
+        (
+            ["reconstruct", "s.h5", "--out", "v.nrrd", "--grid", "sphere"],
+            "--grid: GridSettings.kind must be one of ransac, aabb, got 'sphere'",
+        ),
         (
             ["reconstruct", "s.h5", "--out", "v.nrrd", "--spacing", "0"],
-            "--spacing must be positive, got 0.0",
+            "--spacing: GridSettings.spacing must be positive, got 0.0",
         ),
         (  # before the sweep is read and reconstructed
             ["reconstruct", "s.h5", "--out", "v.txt"],
