@@ -26,6 +26,7 @@ from resus.reslicing.dataset import ResliceWriter
 from resus.reslicing.reslice import Reslice, ResliceSettings
 from resus.sweep.io import write_sweep
 from resus.visualize import open_recording
+from resus.visualize.recording import WebViewerServer
 
 N = 4
 
@@ -203,3 +204,11 @@ def test_sigterm_stops_the_served_viewer_and_a_taken_port_is_one_error(inputs):
     while listening_addresses(grpc_port) or listening_addresses(web_port):
         assert time.monotonic() < deadline, "the rerun server outlived its viewer command"
         time.sleep(0.1)
+
+
+@pytest.mark.parametrize(
+    ("ports", "message"), [((0, 9090), "grpc_port"), ((9876, 70000), "web_port")]
+)
+def test_a_port_out_of_range_is_refused_before_a_server_starts(ports, message):
+    with pytest.raises(ResusError, match=rf"^{message} must be a port number in 1-65535, got"):
+        WebViewerServer(*ports)
