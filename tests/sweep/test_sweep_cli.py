@@ -17,7 +17,7 @@ from shared_data import PLUS_SEQUENCE as SEQUENCE
 from shared_data import requires_plus_data
 from sweep_samples import sample_sweep
 
-from resus.sweep.io import read_sweep, write_sweep
+from resus.sweep.io import SweepWriter, read_sweep, write_sweep
 
 
 def assert_one_line_error(run: subprocess.CompletedProcess, *fragments: str) -> None:
@@ -58,6 +58,20 @@ def test_preview_writes_a_contact_sheet(straight_sweep, tmp_path):
     assert image.shape[0] > 100 and image.shape[1] > 300
     red = (image[..., 0] > 0.8) & (image[..., 1] < 0.5) & (image[..., 2] < 0.5)
     assert red.any()  # the artery overlay is there
+
+
+def test_a_sweep_that_recorded_nothing_has_nothing_to_preview(tmp_path):
+    """A scan that aborted before its first frame leaves a sweep file without frames."""
+    empty = tmp_path / "empty.h5"
+    with SweepWriter(empty, (8, 10), np.eye(4)):
+        pass
+    assert_one_line_error(
+        resus("sweep", "preview", empty, "--out", tmp_path / "sheet.png"),
+        f"{empty}: the sweep holds no frames, nothing to preview",
+    )
+    assert not (tmp_path / "sheet.png").exists()
+    info = resus("sweep", "info", empty)
+    assert info.returncode == 0 and re.search(r"^frames +0$", info.stdout, re.MULTILINE)
 
 
 @requires_plus_data
