@@ -222,3 +222,33 @@ def test_unknown_names_and_missing_files() -> None:
         load_phantom("pig")
     with pytest.raises(ValueError, match="not found"):
         load_phantom("/nonexistent/spec.yaml")
+
+
+GEL = "{name: gel, echogenicity: 0.5, attenuation_db_cm_mhz: 0.5, impedance_mrayl: 1.55}"
+SKIN = GEL.replace("name: gel,", "name: skin, thickness: 0.0,")
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ("size: [0.100, 0.160, 0.060]", "size: [0.100, -0.160, 0.060]",
+         r"block size must be three positive numbers, got \(0\.1, -0\.16, 0\.06\)"),
+        ("side: right", "side: up", r"side must be right or left, got 'up'"),
+        ("noise_level: 0.2", "noise_level: -0.2", r"noise_level must be >= 0, got -0\.2"),
+        ("impedance_mrayl: 1.61", "impedance_mrayl: 0.0",
+         r"material 'blood': impedance_mrayl must be positive"),
+        (GEL, GEL.replace("echogenicity: 0.5", "echogenicity: -0.5"),
+         r"material 'gel': echogenicity and attenuation must be >= 0"),
+        (GEL, f"{SKIN}\n  - {GEL}", r"layer 'skin': thickness must be positive"),
+    ],
+)  # fmt: skip
+def test_a_refused_value_in_a_spec_names_the_file_and_the_value(tmp_path, old, new, message):
+    """The shipped default spec with one value broken: each rule of the spec's data model
+    speaks for itself, through the file that broke it."""
+    text = (assets_dir() / "phantoms" / "default.yaml").read_text()
+    assert old in text
+    path = tmp_path / "edited.yaml"
+    path.write_text(text.replace(old, new, 1))
+    with pytest.raises(ValueError, match=message) as error:
+        load_phantom(path)
+    assert str(error.value).startswith(f"{path}: ")
