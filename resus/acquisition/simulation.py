@@ -312,8 +312,8 @@ def simulate_sweeps(
     from resus.execution import run_pending
 
     kept = [job.out for job in jobs if job.record().done()]
-    for job in jobs:
-        job.out.parent.mkdir(parents=True, exist_ok=True)
+    for folder in {job.out.parent for job in jobs}:
+        folder.mkdir(parents=True, exist_ok=True)
     run_pending(executor, _make_sweep, jobs, "simulate", "sweep", progress=progress)
     return kept
 

@@ -107,7 +107,9 @@ def run_pending(
     worker as it ends; then every unit's result, in order, from the records. Each unit's
     record (and so its key) is taken once, here."""
     records = [item.record() for item in units]
-    pending = [pair for pair in zip(units, records, strict=True) if not pair[1].done()]
+    pending = [
+        (item, record) for item, record in zip(units, records, strict=True) if not record.done()
+    ]
     executor.map(
         functools.partial(_run_and_record, function), pending, desc, unit, resources, progress
     )
